@@ -1,0 +1,143 @@
+"""`build_diagram`: one scenario, one Drake diagram.
+
+    SceneGraph ──query──▶ sensor ──obstacle──▶ navigator ──F_o──▶ selector
+        ▲                   ▲                      ▲                 │ F_n
+        │ pose              │ state                │ state           ▼
+    VehicleGeometry ◀── QuadrotorPlant ◀── RotorMixer ◀── AttitudePD ◀┘
+
+Every signal worth reading afterwards goes through one Multiplexer into a
+VectorLogSink that records at every integrator step.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.examples import QuadrotorPlant
+from pydrake.geometry import SceneGraph
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
+
+from mfi_drake.scenario import Scenario, SphereSensor
+from mfi_drake.sensing import SphereSensor as SphereSensorSystem
+from mfi_drake.sensing import VehicleGeometry, register_obstacles
+from mfi_drake.systems import (
+    AttitudePD,
+    GoalAttractionSelector,
+    MfiNavigator,
+    RotorMixer,
+)
+from mfi_drake.vehicles import VEHICLES, Vehicle
+
+# What the log holds, in order: (name, size, source system, its output port).
+LOG_LAYOUT: list[tuple[str, int, str, str]] = [
+    ("state", 12, "quadrotor", "state"),
+    ("obstacle", 4, "sensor", "obstacle"),
+    ("obstacle_force_terms", 6, "navigator", "obstacle_force_terms"),
+    ("goal_force_terms", 9, "selector", "goal_force_terms"),
+    ("navigation_force", 3, "selector", "navigation_force"),
+    ("mode", 1, "selector", "mode"),
+    ("attitude_setpoint", 4, "attitude_pd", "attitude_setpoint"),
+    ("propeller_force", 4, "mixer", "propeller_force"),
+    ("saturation", 1, "mixer", "saturation"),
+]
+
+NAVIGATORS = {"mfi": MfiNavigator}
+
+
+@dataclass
+class FlightDiagram:
+    """The built diagram and the handles a simulation needs."""
+
+    diagram: Diagram
+    scenario: Scenario
+    vehicle: Vehicle
+    method: str
+    plant: QuadrotorPlant
+    selector: GoalAttractionSelector
+    scene_graph: SceneGraph
+    logger: VectorLogSink
+
+    def log_slices(self) -> dict[str, slice]:
+        slices, start = {}, 0
+        for name, size, _, _ in LOG_LAYOUT:
+            slices[name] = slice(start, start + size)
+            start += size
+        return slices
+
+
+def make_plant(vehicle: Vehicle) -> QuadrotorPlant:
+    return QuadrotorPlant(
+        vehicle.mass, vehicle.arm_length, vehicle.inertia_matrix(), vehicle.kF, vehicle.kM
+    )
+
+
+def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
+    """Builds the closed loop of `scenario` flown by navigator `method`."""
+    if method not in NAVIGATORS:
+        raise ValueError(f"method = {method!r}: must be one of {sorted(NAVIGATORS)}")
+    vehicle = VEHICLES[scenario.vehicle]
+    params = scenario.navigator
+    goal = np.asarray(scenario.goal, float)
+    builder = DiagramBuilder()
+
+    scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
+    register_obstacles(scene_graph, scenario)
+    plant = builder.AddNamedSystem("quadrotor", make_plant(vehicle))
+    geometry = builder.AddNamedSystem(
+        "vehicle_geometry",
+        VehicleGeometry(scene_graph, vehicle.arm_length, vehicle.rotor_radius),
+    )
+    builder.Connect(plant.get_output_port(0), geometry.get_input_port(0))
+    builder.Connect(
+        geometry.get_output_port(0), scene_graph.get_source_pose_port(geometry.source_id)
+    )
+
+    if not isinstance(scenario.sensor, SphereSensor):
+        raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
+    sensor = builder.AddNamedSystem("sensor", SphereSensorSystem(scenario.sensor.radius))
+    builder.Connect(scene_graph.get_query_output_port(), sensor.GetInputPort("query"))
+    builder.Connect(plant.get_output_port(0), sensor.GetInputPort("state"))
+
+    navigator = builder.AddNamedSystem(
+        "navigator", NAVIGATORS[method](params, goal, vehicle.collision_radius)
+    )
+    selector = builder.AddNamedSystem("selector", GoalAttractionSelector(params, goal))
+    attitude = builder.AddNamedSystem("attitude_pd", AttitudePD(vehicle, params))
+    mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
+    builder.Connect(plant.get_output_port(0), navigator.GetInputPort("state"))
+    builder.Connect(sensor.GetOutputPort("obstacle"), navigator.GetInputPort("obstacle"))
+    builder.Connect(plant.get_output_port(0), selector.GetInputPort("state"))
+    builder.Connect(
+        navigator.GetOutputPort("obstacle_force"), selector.GetInputPort("obstacle_force")
+    )
+    builder.Connect(
+        selector.GetOutputPort("navigation_force"), attitude.GetInputPort("navigation_force")
+    )
+    builder.Connect(plant.get_output_port(0), attitude.GetInputPort("state"))
+    builder.Connect(
+        attitude.GetOutputPort("thrust_torque"), mixer.GetInputPort("thrust_torque")
+    )
+    builder.Connect(mixer.GetOutputPort("propeller_force"), plant.get_input_port(0))
+
+    mux = builder.AddNamedSystem("log_mux", Multiplexer([size for _, size, _, _ in LOG_LAYOUT]))
+    systems = {s.get_name(): s for s in (plant, sensor, navigator, selector, attitude, mixer)}
+    for i, (_, _, system_name, port_name) in enumerate(LOG_LAYOUT):
+        source = systems[system_name]
+        port = source.get_output_port(0) if source is plant else source.GetOutputPort(port_name)
+        builder.Connect(port, mux.get_input_port(i))
+    # publish_period 0: the sink records once per integrator step.
+    logger = LogVectorOutput(mux.get_output_port(0), builder, publish_period=0.0)
+    logger.set_name("logger")
+
+    diagram = builder.Build()
+    diagram.set_name(f"mfi_drake[{scenario.name}, {method}]")
+    return FlightDiagram(
+        diagram=diagram,
+        scenario=scenario,
+        vehicle=vehicle,
+        method=method,
+        plant=plant,
+        selector=selector,
+        scene_graph=scene_graph,
+        logger=logger,
+    )

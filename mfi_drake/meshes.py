@@ -1,0 +1,119 @@
+"""Triangle meshes of the scenario's obstacle shapes, for drawing and OBJ I/O.
+
+Drake does the geometry queries; these meshes only draw the obstacles in
+matplotlib and read or write the Wavefront OBJ files of convex obstacles.
+"""
+
+import os
+import tempfile
+
+import numpy as np
+from pydrake.math import RigidTransform, RollPitchYaw
+
+
+def read_obj(path: str) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (N, 3), triangles (M, 3) of 0-based indices) of an OBJ file.
+
+    Polygons are fanned into triangles. Raises ValueError if unreadable.
+    """
+    vertices, faces = [], []
+    try:
+        with open(path) as f:
+            for line in f:
+                parts = line.split()
+                if not parts:
+                    continue
+                if parts[0] == "v":
+                    vertices.append([float(x) for x in parts[1:4]])
+                elif parts[0] == "f":
+                    idx = [int(p.split("/")[0]) for p in parts[1:]]
+                    idx = [i - 1 if i > 0 else len(vertices) + i for i in idx]
+                    faces += [[idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1)]
+    except (OSError, ValueError, IndexError) as e:
+        raise ValueError(f"not a readable OBJ file ({e})") from None
+    if not vertices:
+        raise ValueError("has no vertices")
+    return np.array(vertices), np.array(faces, dtype=int).reshape(-1, 3)
+
+
+def read_obj_vertices(path: str) -> np.ndarray:
+    return read_obj(path)[0]
+
+
+def write_obj(path: str, vertices: np.ndarray, triangles: np.ndarray) -> None:
+    """Writes an OBJ file atomically (temporary name, then rename)."""
+    directory = os.path.dirname(os.path.abspath(path))
+    with tempfile.NamedTemporaryFile("w", dir=directory, delete=False, suffix=".tmp") as f:
+        for v in vertices:
+            f.write(f"v {v[0]:.6f} {v[1]:.6f} {v[2]:.6f}\n")
+        for t in triangles:
+            f.write(f"f {t[0] + 1} {t[1] + 1} {t[2] + 1}\n")
+    os.replace(f.name, path)
+
+
+def _grid_surface(fn, nu: int = 16, nv: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    """A closed surface from fn(u in [0, 2π), v in [0, 1]) -> point."""
+    us = np.linspace(0.0, 2.0 * np.pi, nu, endpoint=False)
+    vs = np.linspace(0.0, 1.0, nv)
+    verts = np.array([fn(u, v) for v in vs for u in us])
+    tris = []
+    for j in range(nv - 1):
+        for i in range(nu):
+            a, b = j * nu + i, j * nu + (i + 1) % nu
+            c, d = a + nu, b + nu
+            tris += [[a, b, d], [a, d, c]]
+    return verts, np.array(tris)
+
+
+def shape_mesh(shape, mesh_file: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and triangles of `shape` in its own frame."""
+    from mfi_drake import scenario as s
+
+    if isinstance(shape, s.Box):
+        h = np.asarray(shape.size) / 2.0
+        corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+        tris = [[q[0], q[1], q[2]] for q in quads] + [[q[0], q[2], q[3]] for q in quads]
+        return corners * h, np.array(tris)
+    if isinstance(shape, s.Sphere | s.Ellipsoid):
+        radii = np.full(3, shape.radius) if isinstance(shape, s.Sphere) else np.asarray(shape.radii)
+        return _grid_surface(
+            lambda u, v: radii
+            * [np.sin(np.pi * v) * np.cos(u), np.sin(np.pi * v) * np.sin(u), -np.cos(np.pi * v)]
+        )
+    if isinstance(shape, s.Cylinder):
+        r, half = shape.radius, shape.length / 2.0
+        return _grid_surface(
+            lambda u, v: [r * np.cos(u) * min(1, 3 * v, 3 - 3 * v) if 0 < v < 1 else 0.0,
+                          r * np.sin(u) * min(1, 3 * v, 3 - 3 * v) if 0 < v < 1 else 0.0,
+                          -half if v < 0.5 else half],
+            nv=4,
+        )
+    if isinstance(shape, s.Capsule):
+        r, half = shape.radius, shape.length / 2.0
+
+        def capsule(u, v):
+            a = np.pi * v  # polar angle from the bottom pole
+            z = -r * np.cos(a) + (half if v >= 0.5 else -half)
+            return [r * np.sin(a) * np.cos(u), r * np.sin(a) * np.sin(u), z]
+
+        return _grid_surface(capsule, nv=12)
+    if isinstance(shape, s.Convex):
+        vertices, tris = read_obj(mesh_file)
+        return vertices * shape.scale, tris
+    raise TypeError(f"unknown shape {shape!r}")
+
+
+def obstacle_pose(obstacle) -> RigidTransform:
+    """X_WO of a scenario obstacle."""
+    return RigidTransform(
+        RollPitchYaw(np.radians(obstacle.rpy_deg)), np.asarray(obstacle.position, float)
+    )
+
+
+def obstacle_triangles(obstacle, mesh_file: str | None = None) -> np.ndarray:
+    """(M, 3, 3) world-frame triangles of an obstacle, for Poly3DCollection."""
+    vertices, tris = shape_mesh(obstacle.shape, mesh_file)
+    X = obstacle_pose(obstacle)
+    world = (X.rotation().matrix() @ vertices.T).T + X.translation()
+    return world[tris]

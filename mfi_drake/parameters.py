@@ -1,0 +1,95 @@
+"""The one typed parameter object of the MFI navigator and quadcopter chain.
+
+The paper gives no numbers for any of these; the defaults below were chosen
+for a ~1 kg quadcopter cruising at 1 m/s among obstacles a few metres apart
+(see the README's parameter table for the reasoning). A scenario file
+overrides any of them by name under `navigator:`.
+"""
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+
+@dataclass
+class NavigatorParams:
+    # --- obstacle field, §IV-A ------------------------------------------
+    c: float = 4.0
+    """Boundary-following gain of eq 12 [N·s]."""
+    r_l: float = 1.5
+    """Boundary-following range of eq 13 [m], from the grown obstacle."""
+    c_perp: float = 0.05
+    """Collision-avoidance gain c⊥ of eq 15 [N·m³]."""
+    r_b: float = 0.6
+    """Collision-avoidance range of eq 15 [m]; must be < r_l."""
+    tangent_blend: float = 0.3
+    """|l_o| below which a deterministic tangent is blended into l_o [-]."""
+    min_distance: float = 1e-3
+    """Floor on r in eq 13/15 [m], so the fields stay finite at contact."""
+    # --- goal attraction, §IV-B -----------------------------------------
+    K_omega: float = 1.5
+    """Heading gain K_ω of eq 17 [kg/s]."""
+    K_v: float = 1.5
+    """Speed gain K_v of eq 19 [N·s/m]."""
+    v_d: float = 1.0
+    """Desired cruise speed v_d of eq 19 [m/s]."""
+    K_P: float = 1.5
+    """Position gain K_P of eq 20 [N/m]."""
+    K_D: float = 2.0
+    """Velocity gain K_D of eq 20 [N·s/m]."""
+    max_pd_force: float = 3.0
+    """Saturation of |F_pd| (eq 20) [N], so a far goal is not a huge pull."""
+    r_gl: float = 1.0
+    """Goal distance below which eq 21 selects the PD term [m]."""
+    goal_hysteresis: float = 0.25
+    """Extra distance beyond r_gl needed to leave the PD mode [m]."""
+    v_min: float = 0.2
+    """Speed above which "v ≠ 0" of eq 21 holds (PD → cruise) [m/s]."""
+    v_stop: float = 0.05
+    """Speed below which cruise falls back to PD (eq 21, v = 0) [m/s]."""
+    # --- quadcopter chain, §V -------------------------------------------
+    K_Pv: float = 1.0
+    """Planar force weight K_Pv of eq 22 [-]."""
+    max_tilt: float = 0.5
+    """Limit on the desired roll and pitch of eq 24 [rad]."""
+    min_thrust_fraction: float = 0.1
+    """Floor on T, as a fraction of m·g, used in eq 24 when T ≤ 0 [-]."""
+    tilt_compensation: bool = True
+    """Divide T by cos(roll)·cos(pitch) so the vertical force is F_Qz."""
+    attitude_natural_frequency: float = 20.0
+    """ω_n of the roll/pitch/yaw loops of eq 25 [rad/s]: K_Pθ = J ω_n²."""
+    attitude_damping_ratio: float = 0.9
+    """ζ of eq 25's loops [-]: K_Dθ = 2 ζ ω_n J."""
+
+
+def validate_params(params: NavigatorParams) -> list[tuple[str, object, str]]:
+    """Problems with `params` as (field, value, reason) triples; [] if none."""
+    problems = []
+    for f in dataclasses.fields(params):
+        value = getattr(params, f.name)
+        if f.type is bool:
+            if not isinstance(value, bool):
+                problems.append((f.name, value, "must be true or false"))
+            continue
+        if not isinstance(value, int | float) or not math.isfinite(value):
+            problems.append((f.name, value, "must be a finite number"))
+        elif value <= 0.0:
+            problems.append((f.name, value, "must be > 0"))
+    if not problems:
+        if params.r_b >= params.r_l:
+            problems.append(("r_b", params.r_b, f"must be < r_l = {params.r_l}"))
+        if params.v_stop >= params.v_min:
+            problems.append(
+                ("v_stop", params.v_stop, f"must be < v_min = {params.v_min}")
+            )
+        if params.v_min >= params.v_d:
+            problems.append(("v_min", params.v_min, f"must be < v_d = {params.v_d}"))
+        if params.max_tilt >= math.pi / 2:
+            problems.append(("max_tilt", params.max_tilt, "must be < π/2"))
+        if params.tangent_blend >= 1.0:
+            problems.append(("tangent_blend", params.tangent_blend, "must be < 1"))
+        if params.min_thrust_fraction >= 1.0:
+            problems.append(
+                ("min_thrust_fraction", params.min_thrust_fraction, "must be < 1")
+            )
+    return problems

@@ -1,0 +1,228 @@
+"""Scenario files: typed dataclasses loaded with Drake's `yaml_load_typed`.
+
+A scenario says where the vehicle starts and must go, which vehicle flies,
+how it senses, which obstacles exist (unknown to the navigator), and any
+overrides of the navigator parameters and of Drake's SimulatorConfig.
+`load_scenario` validates everything it can before anything is built and
+raises `ScenarioError` naming the file, the field and the value.
+"""
+
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.common.yaml import yaml_load_typed
+from pydrake.systems.analysis import SimulatorConfig
+
+from mfi_drake.parameters import NavigatorParams, validate_params
+from mfi_drake.vehicles import VEHICLES
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be flown; the message is one line for the user."""
+
+
+# --- obstacle shapes (the YAML tags !Box, !Sphere, ...) -----------------------
+@dataclass
+class Box:
+    size: list[float] = field(default_factory=lambda: [1.0, 1.0, 1.0])  # m
+
+
+@dataclass
+class Sphere:
+    radius: float = 0.5  # m
+
+
+@dataclass
+class Cylinder:
+    radius: float = 0.5  # m
+    length: float = 1.0  # m, along the obstacle's z axis
+
+
+@dataclass
+class Capsule:
+    radius: float = 0.5  # m
+    length: float = 1.0  # m, of the cylindrical part, along z
+
+
+@dataclass
+class Ellipsoid:
+    radii: list[float] = field(default_factory=lambda: [0.5, 0.5, 0.5])  # m
+
+
+@dataclass
+class Convex:
+    file: str = ""  # Wavefront OBJ; a relative path is relative to the YAML file
+    scale: float = 1.0
+
+
+Shape = Box | Sphere | Cylinder | Capsule | Ellipsoid | Convex
+
+
+@dataclass
+class Obstacle:
+    shape: Shape = field(default_factory=Box)
+    position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # m
+    rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # deg
+
+
+# --- sensors ------------------------------------------------------------------
+@dataclass
+class SphereSensor:
+    """Sees every obstacle point within `radius` of the vehicle centre."""
+
+    radius: float = 3.0  # m, the paper's r_s
+
+
+@dataclass
+class DepthCamera:
+    """An on-board depth camera (paper §VI-B), fixed to the body, looking +x."""
+
+    width: int = 160  # pixels
+    height: int = 120  # pixels
+    fov_y_deg: float = 60.0  # vertical field of view, degrees
+    max_range: float = 6.0  # m; farther pixels are "no return"
+    rate_hz: float = 30.0  # frames per second
+
+
+Sensor = SphereSensor | DepthCamera
+
+
+def default_simulator_config() -> SimulatorConfig:
+    """Error-controlled RK3 at accuracy 1e-4, logging every step."""
+    return SimulatorConfig(
+        integration_scheme="runge_kutta3",
+        max_step_size=0.1,
+        accuracy=1e-4,
+        use_error_control=True,
+        target_realtime_rate=0.0,
+        publish_every_time_step=True,
+    )
+
+
+@dataclass
+class Scenario:
+    name: str = "unnamed"
+    start: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.5])  # m
+    goal: list[float] = field(default_factory=lambda: [5.0, 0.0, 1.5])  # m
+    duration: float = 30.0  # s of simulated time
+    vehicle: str = "drake_default"
+    sensor: Sensor = field(default_factory=SphereSensor)
+    obstacles: list[Obstacle] = field(default_factory=list)
+    navigator: NavigatorParams = field(default_factory=NavigatorParams)
+    simulator: SimulatorConfig = field(default_factory=default_simulator_config)
+    goal_tolerance: float = 0.1  # m, "reached" radius
+    # Directory that relative mesh paths are resolved against (not in YAML).
+    base_dir: str = ""
+
+
+def _fail(where: str, name: str, value, reason: str):
+    raise ScenarioError(f"{where}: {name} = {value!r}: {reason}")
+
+
+def _check_vector(where, name, value, positive=False):
+    if not isinstance(value, list) or len(value) != 3:
+        _fail(where, name, value, "must be a list of 3 numbers")
+    for x in value:
+        if not isinstance(x, int | float) or not math.isfinite(x):
+            _fail(where, name, value, "must hold finite numbers")
+        if positive and x <= 0:
+            _fail(where, name, value, "must be > 0")
+
+
+def _check_positive(where, name, value):
+    if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
+        _fail(where, name, value, "must be a finite number > 0")
+
+
+def mesh_path(scenario: Scenario, shape: Convex) -> str:
+    """Absolute path of a convex mesh file."""
+    return os.path.join(scenario.base_dir, shape.file)
+
+
+def _check_shape(where: str, scenario: Scenario, shape) -> None:
+    if isinstance(shape, Box):
+        _check_vector(where, "shape.size", shape.size, positive=True)
+    elif isinstance(shape, Ellipsoid):
+        _check_vector(where, "shape.radii", shape.radii, positive=True)
+    elif isinstance(shape, Sphere):
+        _check_positive(where, "shape.radius", shape.radius)
+    elif isinstance(shape, Cylinder | Capsule):
+        _check_positive(where, "shape.radius", shape.radius)
+        _check_positive(where, "shape.length", shape.length)
+    elif isinstance(shape, Convex):
+        _check_positive(where, "shape.scale", shape.scale)
+        path = mesh_path(scenario, shape)
+        if not shape.file or not os.path.isfile(path):
+            _fail(where, "shape.file", shape.file, f"no such file ({path})")
+        from mfi_drake.meshes import read_obj_vertices
+
+        try:
+            vertices = read_obj_vertices(path)
+        except ValueError as e:
+            _fail(where, "shape.file", shape.file, str(e))
+        centred = vertices - vertices.mean(axis=0)
+        if len(vertices) < 4 or np.linalg.matrix_rank(centred, tol=1e-9) < 3:
+            _fail(where, "shape.file", shape.file, "needs 4+ non-coplanar vertices")
+    else:
+        _fail(where, "shape", shape, "unknown shape")
+
+
+def validate_scenario(scenario: Scenario, where: str) -> None:
+    """Raises ScenarioError for the first problem found, naming `where`."""
+    if not scenario.name:
+        _fail(where, "name", scenario.name, "must not be empty")
+    _check_vector(where, "start", scenario.start)
+    _check_vector(where, "goal", scenario.goal)
+    _check_positive(where, "duration", scenario.duration)
+    _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
+    if scenario.vehicle not in VEHICLES:
+        _fail(where, "vehicle", scenario.vehicle, f"must be one of {sorted(VEHICLES)}")
+    if isinstance(scenario.sensor, SphereSensor):
+        _check_positive(where, "sensor.radius", scenario.sensor.radius)
+    else:
+        _fail(where, "sensor", scenario.sensor, "unknown sensor")
+    for name, value, reason in validate_params(scenario.navigator):
+        _fail(where, f"navigator.{name}", value, reason)
+    sim = scenario.simulator
+    _check_positive(where, "simulator.accuracy", sim.accuracy)
+    _check_positive(where, "simulator.max_step_size", sim.max_step_size)
+    for i, obstacle in enumerate(scenario.obstacles):
+        at = f"{where}: obstacles[{i}]"
+        _check_shape(at, scenario, obstacle.shape)
+        _check_vector(at, "position", obstacle.position)
+        _check_vector(at, "rpy_deg", obstacle.rpy_deg)
+    # Start and goal must be in free space with room for the vehicle.
+    from mfi_drake.sensing import obstacle_distances
+
+    radius = VEHICLES[scenario.vehicle].collision_radius
+    try:
+        distances = obstacle_distances(scenario, [scenario.start, scenario.goal])
+    except RuntimeError as e:  # a mesh Drake cannot use
+        raise ScenarioError(f"{where}: obstacles: {str(e).splitlines()[0]}") from e
+    for name, point, d in zip(("start", "goal"), (scenario.start, scenario.goal),
+                              distances, strict=True):
+        if d < radius:
+            _fail(
+                where,
+                name,
+                point,
+                f"is {d:.3f} m from an obstacle, closer than the vehicle's "
+                f"collision radius {radius:.3f} m",
+            )
+
+
+def load_scenario(path: str) -> Scenario:
+    """Loads and validates a scenario file; raises ScenarioError if unusable."""
+    if not os.path.isfile(path):
+        raise ScenarioError(f"{path}: no such scenario file")
+    try:
+        scenario = yaml_load_typed(schema=Scenario, filename=path)
+    except Exception as e:  # yaml_load_typed raises several types
+        message = " ".join(str(e).split())
+        raise ScenarioError(f"{path}: {message}") from None
+    scenario.base_dir = os.path.dirname(os.path.abspath(path))
+    validate_scenario(scenario, path)
+    return scenario
+

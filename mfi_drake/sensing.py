@@ -1,0 +1,194 @@
+"""Obstacles in SceneGraph, the vehicle's own geometry, and the sphere sensor.
+
+The navigator never sees SceneGraph: sensors turn geometry into the
+4-vector "obstacle" signal [r_o (3), seen], r_o being the vector from the
+vehicle centre to the closest obstacle point (world frame, m) and seen 1.0
+when an obstacle is in range, else 0.0 (with r_o = 0).
+"""
+
+import numpy as np
+from pydrake.geometry import (
+    Box as DrakeBox,
+)
+from pydrake.geometry import (
+    Capsule as DrakeCapsule,
+)
+from pydrake.geometry import (
+    Convex as DrakeConvex,
+)
+from pydrake.geometry import (
+    Cylinder as DrakeCylinder,
+)
+from pydrake.geometry import (
+    Ellipsoid as DrakeEllipsoid,
+)
+from pydrake.geometry import (
+    FramePoseVector,
+    GeometryFrame,
+    GeometryInstance,
+    IllustrationProperties,
+    PerceptionProperties,
+    ProximityProperties,
+    Rgba,
+    SceneGraph,
+)
+from pydrake.geometry import (
+    Sphere as DrakeSphere,
+)
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.systems.framework import LeafSystem
+
+from mfi_drake import scenario as sc
+from mfi_drake.meshes import obstacle_pose
+
+OBSTACLE_SIGNAL_SIZE = 4
+OBSTACLE_RGBA = Rgba(0.55, 0.55, 0.6, 0.6)
+
+
+def drake_shape(scenario: sc.Scenario, shape):
+    """The pydrake.geometry shape of a scenario shape."""
+    if isinstance(shape, sc.Box):
+        return DrakeBox(*shape.size)
+    if isinstance(shape, sc.Sphere):
+        return DrakeSphere(shape.radius)
+    if isinstance(shape, sc.Cylinder):
+        return DrakeCylinder(shape.radius, shape.length)
+    if isinstance(shape, sc.Capsule):
+        return DrakeCapsule(shape.radius, shape.length)
+    if isinstance(shape, sc.Ellipsoid):
+        return DrakeEllipsoid(*shape.radii)
+    if isinstance(shape, sc.Convex):
+        return DrakeConvex(sc.mesh_path(scenario, shape), shape.scale)
+    raise TypeError(f"unknown shape {shape!r}")
+
+
+def register_obstacles(scene_graph: SceneGraph, scenario: sc.Scenario) -> None:
+    """Registers every obstacle as anchored geometry with the proximity
+    (sphere sensor, clearance), perception (depth camera) and illustration
+    roles."""
+    source = scene_graph.RegisterSource("obstacles")
+    for i, obstacle in enumerate(scenario.obstacles):
+        instance = GeometryInstance(
+            obstacle_pose(obstacle), drake_shape(scenario, obstacle.shape), f"obstacle_{i}"
+        )
+        instance.set_proximity_properties(ProximityProperties())
+        perception = PerceptionProperties()
+        perception.AddProperty("phong", "diffuse", OBSTACLE_RGBA)
+        perception.AddProperty("label", "id", i + 1)
+        instance.set_perception_properties(perception)
+        illustration = IllustrationProperties()
+        illustration.AddProperty("phong", "diffuse", OBSTACLE_RGBA)
+        instance.set_illustration_properties(illustration)
+        scene_graph.RegisterAnchoredGeometry(source, instance)
+
+
+def closest_obstacle(query_object, p: np.ndarray, threshold: float) -> np.ndarray:
+    """[r_o, seen] for the closest proximity geometry within `threshold` of p.
+
+    Uses SceneGraph's ComputeSignedDistanceToPoint: the closest point is
+    p − d ∇d (∇d is the outward gradient), so r_o = −d ∇d. Only obstacles
+    carry the proximity role, so the vehicle never sees itself.
+    """
+    results = query_object.ComputeSignedDistanceToPoint(p, threshold)
+    if not results:
+        return np.zeros(OBSTACLE_SIGNAL_SIZE)
+    best = min(results, key=lambda r: r.distance)
+    out = np.empty(OBSTACLE_SIGNAL_SIZE)
+    out[:3] = -best.distance * best.grad_W
+    out[3] = 1.0
+    return out
+
+
+def obstacle_distances(scenario: sc.Scenario, points) -> list[float]:
+    """Exact signed distance from each point to the nearest obstacle surface
+    (inf when there are no obstacles)."""
+    scene_graph = SceneGraph()
+    register_obstacles(scene_graph, scenario)
+    context = scene_graph.CreateDefaultContext()
+    query = scene_graph.get_query_output_port().Eval(context)
+    out = []
+    for p in points:
+        results = query.ComputeSignedDistanceToPoint(np.asarray(p, float), np.inf)
+        out.append(min((r.distance for r in results), default=np.inf))
+    return out
+
+
+class SphereSensor(LeafSystem):
+    """The paper's local sensor (§III): the closest obstacle point within r_s.
+
+    Inputs: "query" (SceneGraph QueryObject), "state" (the plant's 12-vector).
+    Output: "obstacle" [r_o, seen].
+    """
+
+    def __init__(self, radius: float):
+        super().__init__()
+        self._radius = radius
+        self._query = self.DeclareAbstractInputPort(
+            "query", SceneGraph().get_query_output_port().Allocate()
+        )
+        self._state = self.DeclareVectorInputPort("state", 12)
+        self.DeclareVectorOutputPort(
+            "obstacle",
+            OBSTACLE_SIGNAL_SIZE,
+            self._calc,
+            prerequisites_of_calc={
+                self._query.ticket(),
+                self._state.ticket(),
+            },
+        )
+
+    def _calc(self, context, output):
+        p = self._state.Eval(context)[:3]
+        query = self._query.Eval(context)
+        output.SetFromVector(closest_obstacle(query, p, self._radius))
+
+
+class VehicleGeometry(LeafSystem):
+    """Registers the vehicle's body frame and a visual shape with SceneGraph
+    and moves the frame with the plant's state.
+
+    The shapes carry only the illustration role: the vehicle is drawn, but
+    neither the sphere sensor nor a camera can see it.
+    """
+
+    def __init__(self, scene_graph: SceneGraph, arm_length: float, rotor_radius: float):
+        super().__init__()
+        self._source = scene_graph.RegisterSource("vehicle")
+        self.frame_id = scene_graph.RegisterFrame(self._source, GeometryFrame("body"))
+        parts = [(RigidTransform(), DrakeBox(0.6 * arm_length, 0.6 * arm_length, 0.05))]
+        for k in range(4):
+            angle = k * np.pi / 2
+            arm_pose = RigidTransform(
+                RollPitchYaw(0.0, 0.0, angle),
+                [0.5 * arm_length * np.cos(angle), 0.5 * arm_length * np.sin(angle), 0.0],
+            )
+            parts.append((arm_pose, DrakeBox(arm_length, 0.02, 0.02)))
+            rotor_pose = RigidTransform(
+                [arm_length * np.cos(angle), arm_length * np.sin(angle), 0.03]
+            )
+            parts.append((rotor_pose, DrakeCylinder(rotor_radius, 0.01)))
+        for i, (pose, shape) in enumerate(parts):
+            instance = GeometryInstance(pose, shape, f"vehicle_{i}")
+            illustration = IllustrationProperties()
+            illustration.AddProperty("phong", "diffuse", Rgba(0.1, 0.3, 0.8, 1.0))
+            instance.set_illustration_properties(illustration)
+            scene_graph.RegisterGeometry(self._source, self.frame_id, instance)
+        self._state = self.DeclareVectorInputPort("state", 12)
+        self.DeclareAbstractOutputPort(
+            "geometry_pose",
+            lambda: AbstractValue.Make(FramePoseVector()),
+            self._calc,
+            prerequisites_of_calc={self._state.ticket()},
+        )
+
+    @property
+    def source_id(self):
+        return self._source
+
+    def _calc(self, context, output):
+        x = self._state.Eval(context)
+        pose = RigidTransform(RollPitchYaw(x[3:6]), x[:3])
+        poses = output.get_mutable_value()
+        poses.clear()
+        poses.set_value(self.frame_id, pose)

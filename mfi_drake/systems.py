@@ -1,0 +1,320 @@
+"""The controller LeafSystems: thin adapters from named ports to `fields` and
+`quadcopter`.
+
+Each is templated on the scalar type with `TemplateSystem.define` (as
+Drake's Python examples do) so that a diagram holding them converts to
+AutoDiffXd for `Linearize`. Outputs declare narrow prerequisites so the
+builder need not convert to symbolic form to look for algebraic loops.
+"""
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import (
+    LeafSystem_,
+    UnrestrictedUpdateEvent_,
+    ValueProducer,
+    WitnessFunctionDirection,
+)
+from pydrake.systems.scalar_conversion import TemplateSystem
+
+from mfi_drake import fields
+from mfi_drake.quadcopter import (
+    attitude_gains,
+    attitude_pd_torque,
+    attitude_setpoint,
+    mix,
+    mixer_matrix,
+)
+from mfi_drake.sensing import OBSTACLE_SIGNAL_SIZE
+from mfi_drake.vehicles import Vehicle
+
+STATE_SIZE = 12  # QuadrotorPlant's state
+
+
+def _position_velocity(x):
+    return np.asarray(x[0:3]), np.asarray(x[6:9])
+
+
+def _shared_vector(system, description, size, calc, tickets):
+    """A cache entry holding a numpy vector computed once for several outputs."""
+    return system.DeclareCacheEntry(
+        description=description,
+        value_producer=ValueProducer(
+            allocate=AbstractValue.Make(np.zeros(size)).Clone,
+            calc=lambda context, value: value.set_value(calc(context)),
+        ),
+        prerequisites_of_calc=set(tickets),
+    )
+
+
+@TemplateSystem.define("MfiNavigator_")
+def MfiNavigator_(T):
+    class Impl(LeafSystem_[T]):
+        """The MFI obstacle field F_o = F + F_a (eq 11–15).
+
+        Inputs: "state" (12), "obstacle" [r_o, seen] from any sensor.
+        Outputs: "obstacle_force" F_o (3), "obstacle_force_terms" [F, F_a] (6).
+        """
+
+        def _construct(self, params, goal, collision_radius, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.params = params
+            self.goal = np.asarray(goal, dtype=float)
+            self.collision_radius = float(collision_radius)
+            self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+            self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
+            tickets = {self._state.ticket(), self._obstacle.ticket()}
+            self._terms = _shared_vector(self, "F and F_a", 6, self._calc_terms, tickets)
+            terms_ticket = {self._terms.ticket()}
+            self.DeclareVectorOutputPort(
+                "obstacle_force", 3, self._calc_force, prerequisites_of_calc=terms_ticket
+            )
+            self.DeclareVectorOutputPort(
+                "obstacle_force_terms",
+                6,
+                lambda context, out: out.SetFromVector(self._terms.Eval(context)),
+                prerequisites_of_calc=terms_ticket,
+            )
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(
+                self, other.params, other.goal, other.collision_radius, converter=converter
+            )
+
+        def _calc_terms(self, context):
+            p, v = _position_velocity(self._state.Eval(context))
+            obstacle = self._obstacle.Eval(context)
+            F, F_a = fields.obstacle_field(
+                v, obstacle[:3], obstacle[3], self.goal - p, self.collision_radius, self.params
+            )
+            return np.concatenate([F, F_a])
+
+        def _calc_force(self, context, output):
+            terms = self._terms.Eval(context)
+            output.SetFromVector(terms[:3] + terms[3:])
+
+    return Impl
+
+
+MfiNavigator = MfiNavigator_[None]
+
+
+@TemplateSystem.define("GoalAttractionSelector_")
+def GoalAttractionSelector_(T):
+    class Impl(LeafSystem_[T]):
+        """Goal attraction and the mode switch of eq 21: F_n from F_o.
+
+        Cruise: F_n = F_o + F_gc + F_v (eq 16–19); PD: F_n = F_o + F_pd
+        (eq 20). With `mode=None` the mode is a discrete state switched by
+        witness functions (cruise_guard / pd_guard crossing zero), so the
+        integrator localises each switch instead of stepping over a jump.
+        A fixed `mode` (fields.MODE_PD or MODE_CRUISE) declares no state, for
+        linearisation.
+
+        Inputs: "state" (12), "obstacle_force" F_o (3).
+        Outputs: "navigation_force" F_n (3), "goal_force_terms"
+        [F_gc, F_v, F_pd] (9), "mode" (1).
+        """
+
+        def _construct(self, params, goal, mode=None, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.params = params
+            self.goal = np.asarray(goal, dtype=float)
+            self.fixed_mode = mode
+            self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+            self._obstacle_force = self.DeclareVectorInputPort("obstacle_force", 3)
+            tickets = {self._state.ticket()}
+            if mode is None:
+                self._mode_index = self.DeclareDiscreteState(1)
+                tickets.add(self.discrete_state_ticket(self._mode_index))
+                to_cruise = UnrestrictedUpdateEvent_[T](self._switch_to(fields.MODE_CRUISE))
+                to_pd = UnrestrictedUpdateEvent_[T](self._switch_to(fields.MODE_PD))
+                self._witness = {
+                    fields.MODE_PD: self.MakeWitnessFunction(
+                        "eq 21: PD -> cruise",
+                        WitnessFunctionDirection.kNegativeThenNonNegative,
+                        self._guard(fields.cruise_guard),
+                        to_cruise,
+                    ),
+                    fields.MODE_CRUISE: self.MakeWitnessFunction(
+                        "eq 21: cruise -> PD",
+                        WitnessFunctionDirection.kPositiveThenNonPositive,
+                        self._guard(fields.pd_guard),
+                        to_pd,
+                    ),
+                }
+            self._terms = _shared_vector(self, "F_gc, F_v, F_pd", 9, self._calc_terms, tickets)
+            self.DeclareVectorOutputPort(
+                "navigation_force",
+                3,
+                self._calc_force,
+                prerequisites_of_calc={
+                    self._terms.ticket(),
+                    self._obstacle_force.ticket(),
+                },
+            )
+            self.DeclareVectorOutputPort(
+                "goal_force_terms",
+                9,
+                lambda context, out: out.SetFromVector(self._terms.Eval(context)),
+                prerequisites_of_calc={self._terms.ticket()},
+            )
+            self.DeclareVectorOutputPort(
+                "mode",
+                1,
+                lambda context, out: out.SetAtIndex(0, float(self.mode(context))),
+                prerequisites_of_calc=tickets - {self._state.ticket()}
+                or {self.nothing_ticket()},
+            )
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(
+                self, other.params, other.goal, other.fixed_mode, converter=converter
+            )
+
+        def mode(self, context) -> int:
+            if self.fixed_mode is not None:
+                return self.fixed_mode
+            value = context.get_discrete_state(self._mode_index).GetAtIndex(0)
+            return int(round(float(value.value() if hasattr(value, "value") else value)))
+
+        def set_mode(self, context, mode: int) -> None:
+            """Sets the mode state (e.g. the initial mode from the initial state)."""
+            context.SetDiscreteState(self._mode_index, [float(mode)])
+
+        def initial_mode(self, x) -> int:
+            """The mode eq 21 selects at rest-or-moving state x from scratch."""
+            p, v = _position_velocity(x)
+            if fields.cruise_guard(p, v, self.goal, self.params) >= 0.0:
+                return fields.MODE_CRUISE
+            return fields.MODE_PD
+
+        def _guard(self, guard):
+            def calc(context):
+                p, v = _position_velocity(self._state.Eval(context))
+                return guard(p, v, self.goal, self.params)
+
+            return calc
+
+        def _switch_to(self, mode):
+            def update(context, event, state):
+                state.get_mutable_discrete_state(self._mode_index).SetAtIndex(
+                    0, float(mode)
+                )
+
+            return update
+
+        def DoGetWitnessFunctions(self, context):
+            if self.fixed_mode is not None:
+                return []
+            return [self._witness[self.mode(context)]]
+
+        def _calc_terms(self, context):
+            p, v = _position_velocity(self._state.Eval(context))
+            F_gc, F_v, F_pd = fields.goal_terms(
+                self.mode(context), p, v, self.goal, self.params
+            )
+            return np.concatenate([F_gc, F_v, F_pd])
+
+        def _calc_force(self, context, output):
+            terms = self._terms.Eval(context)
+            F_o = self._obstacle_force.Eval(context)
+            output.SetFromVector(F_o + terms[0:3] + terms[3:6] + terms[6:9])
+
+    return Impl
+
+
+GoalAttractionSelector = GoalAttractionSelector_[None]
+
+
+@TemplateSystem.define("AttitudePD_")
+def AttitudePD_(T):
+    class Impl(LeafSystem_[T]):
+        """Eq 22–25: thrust and roll/pitch/yaw PD torques from F_n.
+
+        Inputs: "navigation_force" F_n (3), "state" (12).
+        Outputs: "thrust_torque" [T, τx, τy, τz] (4), "attitude_setpoint"
+        [T, roll_d, pitch_d, yaw_d] (4).
+        """
+
+        def _construct(self, vehicle, params, K_P=None, K_D=None, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.vehicle = vehicle
+            self.params = params
+            default_P, default_D = attitude_gains(vehicle, params)
+            self.K_P = default_P if K_P is None else np.asarray(K_P, float)
+            self.K_D = default_D if K_D is None else np.asarray(K_D, float)
+            self._force = self.DeclareVectorInputPort("navigation_force", 3)
+            self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+            tickets = {self._force.ticket(), self._state.ticket()}
+            self.DeclareVectorOutputPort(
+                "thrust_torque", 4, self._calc_thrust_torque, prerequisites_of_calc=tickets
+            )
+            self.DeclareVectorOutputPort(
+                "attitude_setpoint",
+                4,
+                lambda context, out: out.SetFromVector(self._setpoint(context)),
+                prerequisites_of_calc=tickets,
+            )
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(
+                self, other.vehicle, other.params, other.K_P, other.K_D, converter=converter
+            )
+
+        def _setpoint(self, context):
+            x = self._state.Eval(context)
+            F_n = self._force.Eval(context)
+            return attitude_setpoint(F_n, x[3:6], 0.0, self.vehicle, self.params)
+
+        def _calc_thrust_torque(self, context, output):
+            x = self._state.Eval(context)
+            setpoint = self._setpoint(context)
+            tau = attitude_pd_torque(x[3:6], x[9:12], setpoint[1:4], self.K_P, self.K_D)
+            output.SetFromVector(np.concatenate([setpoint[:1], tau]))
+
+    return Impl
+
+
+AttitudePD = AttitudePD_[None]
+
+
+@TemplateSystem.define("RotorMixer_")
+def RotorMixer_(T):
+    class Impl(LeafSystem_[T]):
+        """Eq 8 inverted for QuadrotorPlant's layout, clipped to [0, u_max].
+
+        Input: "thrust_torque" (4). Outputs: "propeller_force" u (4) for the
+        plant, "saturation" (1): how many rotors were clipped.
+        """
+
+        def _construct(self, vehicle: Vehicle, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.vehicle = vehicle
+            self._D_inv = np.linalg.inv(mixer_matrix(vehicle))
+            self._input = self.DeclareVectorInputPort("thrust_torque", 4)
+            tickets = {self._input.ticket()}
+            self.DeclareVectorOutputPort(
+                "propeller_force",
+                4,
+                lambda context, out: out.SetFromVector(self._mix(context)[0]),
+                prerequisites_of_calc=tickets,
+            )
+            self.DeclareVectorOutputPort(
+                "saturation",
+                1,
+                lambda context, out: out.SetAtIndex(0, float(self._mix(context)[1])),
+                prerequisites_of_calc=tickets,
+            )
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.vehicle, converter=converter)
+
+        def _mix(self, context):
+            return mix(self._input.Eval(context), self._D_inv, self.vehicle.u_max)
+
+    return Impl
+
+
+RotorMixer = RotorMixer_[None]
+
