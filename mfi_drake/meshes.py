@@ -117,3 +117,63 @@ def obstacle_triangles(obstacle, mesh_file: str | None = None) -> np.ndarray:
     X = obstacle_pose(obstacle)
     world = (X.rotation().matrix() @ vertices.T).T + X.translation()
     return world[tris]
+
+
+def geodesic_sphere(subdivisions: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Unit geodesic sphere (a subdivided icosahedron): a convex polytope."""
+    t = (1.0 + 5.0**0.5) / 2.0
+    verts = [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
+             [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]]
+    verts = [list(np.asarray(v) / np.linalg.norm(v)) for v in verts]
+    tris = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9],
+            [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2],
+            [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10],
+            [8, 6, 7], [9, 8, 1]]
+    for _ in range(subdivisions):
+        midpoint, new_tris = {}, []
+
+        def mid(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in midpoint:
+                m = np.asarray(verts[a]) + np.asarray(verts[b])
+                verts.append(list(m / np.linalg.norm(m)))
+                midpoint[key] = len(verts) - 1
+            return midpoint[key]
+
+        for a, b, c in tris:
+            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            new_tris += [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+        tris = new_tris
+    return np.array(verts), np.array(tris)
+
+
+def prism(polygon: np.ndarray, height: float) -> tuple[np.ndarray, np.ndarray]:
+    """A right prism over a convex counter-clockwise polygon (K, 2), z ∈ ±h/2."""
+    k = len(polygon)
+    bottom = np.column_stack([polygon, np.full(k, -height / 2)])
+    top = np.column_stack([polygon, np.full(k, height / 2)])
+    tris = [[0, i + 1, i] for i in range(1, k - 1)]  # bottom, facing −z
+    tris += [[k, k + i, k + i + 1] for i in range(1, k - 1)]  # top, facing +z
+    for i in range(k):
+        j = (i + 1) % k
+        tris += [[i, j, k + j], [i, k + j, k + i]]
+    return np.vstack([bottom, top]), np.array(tris)
+
+
+def write_scenario_meshes(directory: str) -> list[str]:
+    """Regenerates the convex meshes the shipped scenarios use."""
+    os.makedirs(directory, exist_ok=True)
+    canopy = os.path.join(directory, "canopy.obj")
+    vertices, tris = geodesic_sphere(1)
+    write_obj(canopy, vertices * [1.3, 1.3, 1.0], tris)
+    wedge = os.path.join(directory, "wedge.obj")
+    # A 3 m tall prism whose sharp 39° edge points along −x.
+    write_obj(wedge, *prism(np.array([[0.0, 0.0], [2.0, -0.7], [2.0, 0.7]]), 3.0))
+    return [canopy, wedge]
+
+
+if __name__ == "__main__":
+    import sys
+
+    for path in write_scenario_meshes(sys.argv[1] if len(sys.argv) > 1 else "scenarios/meshes"):
+        print(f"wrote {path}")
