@@ -33,8 +33,10 @@ def _json_safe(obj):
 
 def summary_line(metrics: dict) -> str:
     """One human line with the outcome and the key numbers of a run."""
-    outcome = "SUCCESS" if metrics["success"] else (
-        "COLLISION" if metrics["collided"] else "NOT REACHED"
+    outcome = (
+        "SUCCESS"
+        if metrics["success"]
+        else ("COLLISION" if metrics["collided"] else "NOT REACHED")
     )
     clearance = metrics["min_clearance"]
     conv = metrics["convergence_time"]
@@ -81,7 +83,9 @@ def cmd_diagram(args) -> int:
             ["dot", "-Tsvg"], input=dot.encode(), capture_output=True, check=True
         ).stdout
     except FileNotFoundError:
-        raise UsageError("Graphviz `dot` is not installed (apt-get install graphviz)") from None
+        raise UsageError(
+            "Graphviz `dot` is not installed (apt-get install graphviz)"
+        ) from None
     from mfi_drake.outputs import atomic_path
 
     with atomic_path(args.out) as tmp, open(tmp, "wb") as f:
@@ -106,7 +110,9 @@ def make_parser() -> argparse.ArgumentParser:
 
     diagram = sub.add_parser("diagram", help="draw the built diagram as SVG (Graphviz)")
     diagram.add_argument("scenario", help="scenario YAML file")
-    diagram.add_argument("--method", default="mfi", help="navigation method (default mfi)")
+    diagram.add_argument(
+        "--method", default="mfi", help="navigation method (default mfi)"
+    )
     diagram.add_argument("--out", required=True, help="output .svg file")
     diagram.set_defaults(func=cmd_diagram)
     return parser

@@ -67,7 +67,11 @@ class FlightDiagram:
 
 def make_plant(vehicle: Vehicle) -> QuadrotorPlant:
     return QuadrotorPlant(
-        vehicle.mass, vehicle.arm_length, vehicle.inertia_matrix(), vehicle.kF, vehicle.kM
+        vehicle.mass,
+        vehicle.arm_length,
+        vehicle.inertia_matrix(),
+        vehicle.kF,
+        vehicle.kM,
     )
 
 
@@ -89,12 +93,15 @@ def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
     )
     builder.Connect(plant.get_output_port(0), geometry.get_input_port(0))
     builder.Connect(
-        geometry.get_output_port(0), scene_graph.get_source_pose_port(geometry.source_id)
+        geometry.get_output_port(0),
+        scene_graph.get_source_pose_port(geometry.source_id),
     )
 
     if not isinstance(scenario.sensor, SphereSensor):
         raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
-    sensor = builder.AddNamedSystem("sensor", SphereSensorSystem(scenario.sensor.radius))
+    sensor = builder.AddNamedSystem(
+        "sensor", SphereSensorSystem(scenario.sensor.radius)
+    )
     builder.Connect(scene_graph.get_query_output_port(), sensor.GetInputPort("query"))
     builder.Connect(plant.get_output_port(0), sensor.GetInputPort("state"))
 
@@ -105,13 +112,17 @@ def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
     attitude = builder.AddNamedSystem("attitude_pd", AttitudePD(vehicle, params))
     mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
     builder.Connect(plant.get_output_port(0), navigator.GetInputPort("state"))
-    builder.Connect(sensor.GetOutputPort("obstacle"), navigator.GetInputPort("obstacle"))
+    builder.Connect(
+        sensor.GetOutputPort("obstacle"), navigator.GetInputPort("obstacle")
+    )
     builder.Connect(plant.get_output_port(0), selector.GetInputPort("state"))
     builder.Connect(
-        navigator.GetOutputPort("obstacle_force"), selector.GetInputPort("obstacle_force")
+        navigator.GetOutputPort("obstacle_force"),
+        selector.GetInputPort("obstacle_force"),
     )
     builder.Connect(
-        selector.GetOutputPort("navigation_force"), attitude.GetInputPort("navigation_force")
+        selector.GetOutputPort("navigation_force"),
+        attitude.GetInputPort("navigation_force"),
     )
     builder.Connect(plant.get_output_port(0), attitude.GetInputPort("state"))
     builder.Connect(
@@ -119,11 +130,19 @@ def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
     )
     builder.Connect(mixer.GetOutputPort("propeller_force"), plant.get_input_port(0))
 
-    mux = builder.AddNamedSystem("log_mux", Multiplexer([size for _, size, _, _ in LOG_LAYOUT]))
-    systems = {s.get_name(): s for s in (plant, sensor, navigator, selector, attitude, mixer)}
+    mux = builder.AddNamedSystem(
+        "log_mux", Multiplexer([size for _, size, _, _ in LOG_LAYOUT])
+    )
+    systems = {
+        s.get_name(): s for s in (plant, sensor, navigator, selector, attitude, mixer)
+    }
     for i, (_, _, system_name, port_name) in enumerate(LOG_LAYOUT):
         source = systems[system_name]
-        port = source.get_output_port(0) if source is plant else source.GetOutputPort(port_name)
+        port = (
+            source.get_output_port(0)
+            if source is plant
+            else source.GetOutputPort(port_name)
+        )
         builder.Connect(port, mux.get_input_port(i))
     # publish_period 0: the sink records once per integrator step.
     logger = LogVectorOutput(mux.get_output_port(0), builder, publish_period=0.0)

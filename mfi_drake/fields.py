@@ -125,10 +125,12 @@ def obstacle_field(
     speed, l_a = heading(v)
     if seen <= 0.5 or speed < TINY or distance < TINY:
         return zero, zero
-    n = r_o / distance
     r = distance - collision_radius
+    if r >= params.r_l:  # beyond both ranges (r_b < r_l): nothing to do
+        return zero, zero
     if r < params.min_distance:
         r = params.min_distance + 0.0 * r
+    n = r_o / distance
     l_o = artificial_current(l_a, n, r_g, params.tangent_blend)
     F = boundary_following_field(l_a, l_o, speed, r, params.c, params.r_l)
     F_a = collision_avoidance_field(l_a, n, l_o, r, params.c_perp, params.r_b)

@@ -28,7 +28,9 @@ def read_obj(path: str) -> tuple[np.ndarray, np.ndarray]:
                 elif parts[0] == "f":
                     idx = [int(p.split("/")[0]) for p in parts[1:]]
                     idx = [i - 1 if i > 0 else len(vertices) + i for i in idx]
-                    faces += [[idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1)]
+                    faces += [
+                        [idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1)
+                    ]
     except (OSError, ValueError, IndexError) as e:
         raise ValueError(f"not a readable OBJ file ({e})") from None
     if not vertices:
@@ -43,7 +45,9 @@ def read_obj_vertices(path: str) -> np.ndarray:
 def write_obj(path: str, vertices: np.ndarray, triangles: np.ndarray) -> None:
     """Writes an OBJ file atomically (temporary name, then rename)."""
     directory = os.path.dirname(os.path.abspath(path))
-    with tempfile.NamedTemporaryFile("w", dir=directory, delete=False, suffix=".tmp") as f:
+    with tempfile.NamedTemporaryFile(
+        "w", dir=directory, delete=False, suffix=".tmp"
+    ) as f:
         for v in vertices:
             f.write(f"v {v[0]:.6f} {v[1]:.6f} {v[2]:.6f}\n")
         for t in triangles:
@@ -71,22 +75,43 @@ def shape_mesh(shape, mesh_file: str | None = None) -> tuple[np.ndarray, np.ndar
 
     if isinstance(shape, s.Box):
         h = np.asarray(shape.size) / 2.0
-        corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
-        quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+        corners = np.array(
+            [[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]
+        )
+        quads = [
+            [0, 1, 3, 2],
+            [4, 6, 7, 5],
+            [0, 4, 5, 1],
+            [2, 3, 7, 6],
+            [0, 2, 6, 4],
+            [1, 5, 7, 3],
+        ]
         tris = [[q[0], q[1], q[2]] for q in quads] + [[q[0], q[2], q[3]] for q in quads]
         return corners * h, np.array(tris)
     if isinstance(shape, s.Sphere | s.Ellipsoid):
-        radii = np.full(3, shape.radius) if isinstance(shape, s.Sphere) else np.asarray(shape.radii)
+        radii = (
+            np.full(3, shape.radius)
+            if isinstance(shape, s.Sphere)
+            else np.asarray(shape.radii)
+        )
         return _grid_surface(
-            lambda u, v: radii
-            * [np.sin(np.pi * v) * np.cos(u), np.sin(np.pi * v) * np.sin(u), -np.cos(np.pi * v)]
+            lambda u, v: (
+                radii
+                * [
+                    np.sin(np.pi * v) * np.cos(u),
+                    np.sin(np.pi * v) * np.sin(u),
+                    -np.cos(np.pi * v),
+                ]
+            )
         )
     if isinstance(shape, s.Cylinder):
         r, half = shape.radius, shape.length / 2.0
         return _grid_surface(
-            lambda u, v: [r * np.cos(u) * min(1, 3 * v, 3 - 3 * v) if 0 < v < 1 else 0.0,
-                          r * np.sin(u) * min(1, 3 * v, 3 - 3 * v) if 0 < v < 1 else 0.0,
-                          -half if v < 0.5 else half],
+            lambda u, v: [
+                r * np.cos(u) * min(1, 3 * v, 3 - 3 * v) if 0 < v < 1 else 0.0,
+                r * np.sin(u) * min(1, 3 * v, 3 - 3 * v) if 0 < v < 1 else 0.0,
+                -half if v < 0.5 else half,
+            ],
             nv=4,
         )
     if isinstance(shape, s.Capsule):
@@ -122,13 +147,43 @@ def obstacle_triangles(obstacle, mesh_file: str | None = None) -> np.ndarray:
 def geodesic_sphere(subdivisions: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Unit geodesic sphere (a subdivided icosahedron): a convex polytope."""
     t = (1.0 + 5.0**0.5) / 2.0
-    verts = [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
-             [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]]
+    verts = [
+        [-1, t, 0],
+        [1, t, 0],
+        [-1, -t, 0],
+        [1, -t, 0],
+        [0, -1, t],
+        [0, 1, t],
+        [0, -1, -t],
+        [0, 1, -t],
+        [t, 0, -1],
+        [t, 0, 1],
+        [-t, 0, -1],
+        [-t, 0, 1],
+    ]
     verts = [list(np.asarray(v) / np.linalg.norm(v)) for v in verts]
-    tris = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9],
-            [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2],
-            [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10],
-            [8, 6, 7], [9, 8, 1]]
+    tris = [
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ]
     for _ in range(subdivisions):
         midpoint, new_tris = {}, []
 
@@ -175,5 +230,7 @@ def write_scenario_meshes(directory: str) -> list[str]:
 if __name__ == "__main__":
     import sys
 
-    for path in write_scenario_meshes(sys.argv[1] if len(sys.argv) > 1 else "scenarios/meshes"):
+    for path in write_scenario_meshes(
+        sys.argv[1] if len(sys.argv) > 1 else "scenarios/meshes"
+    ):
         print(f"wrote {path}")

@@ -56,7 +56,7 @@ class NavigatorParams:
     """Floor on T, as a fraction of m·g, used in eq 24 when T ≤ 0 [-]."""
     tilt_compensation: bool = True
     """Divide T by cos(roll)·cos(pitch) so the vertical force is F_Qz."""
-    attitude_natural_frequency: float = 20.0
+    attitude_natural_frequency: float = 10.0
     """ω_n of the roll/pitch/yaw loops of eq 25 [rad/s]: K_Pθ = J ω_n²."""
     attitude_damping_ratio: float = 0.9
     """ζ of eq 25's loops [-]: K_Dθ = 2 ζ ω_n J."""

@@ -19,12 +19,16 @@ METHOD_LABELS = {"mfi": "MFI", "apf": "APF", "gf": "GF"}
 def draw_obstacles(ax, scenario: Scenario) -> None:
     for obstacle in scenario.obstacles:
         mesh_file = (
-            mesh_path(scenario, obstacle.shape) if isinstance(obstacle.shape, Convex) else None
+            mesh_path(scenario, obstacle.shape)
+            if isinstance(obstacle.shape, Convex)
+            else None
         )
         triangles = obstacle_triangles(obstacle, mesh_file)
         ax.add_collection3d(
             Poly3DCollection(
-                triangles, facecolor=(0.6, 0.6, 0.65, 0.35), edgecolor=(0.4, 0.4, 0.45, 0.15),
+                triangles,
+                facecolor=(0.6, 0.6, 0.65, 0.35),
+                edgecolor=(0.4, 0.4, 0.45, 0.15),
                 linewidth=0.3,
             )
         )
@@ -51,19 +55,32 @@ def plot_flights(scenario: Scenario, flights: list, path: str, title: str = "") 
     for obstacle in scenario.obstacles:
         corners.append(np.asarray(obstacle.position))
     for flight in flights:
-        colour = METHOD_COLOURS.get(flight.method, None)
+        colour = METHOD_COLOURS.get(flight.method)
         label = METHOD_LABELS.get(flight.method, flight.method)
         m = flight.metrics
-        outcome = "reached" if m["success"] else ("collided" if m["collided"] else "failed")
+        outcome = (
+            "reached" if m["success"] else ("collided" if m["collided"] else "failed")
+        )
         p = flight.positions
         corners.append(p)
-        ax3d.plot(p[:, 0], p[:, 1], p[:, 2], color=colour, lw=1.8, label=f"{label} ({outcome})")
+        ax3d.plot(
+            p[:, 0],
+            p[:, 1],
+            p[:, 2],
+            color=colour,
+            lw=1.8,
+            label=f"{label} ({outcome})",
+        )
         steps = np.linalg.norm(np.diff(p, axis=0), axis=1)
         length = np.concatenate([[0.0], np.cumsum(steps)])
         ax_len.plot(flight.times, length, color=colour, label=label)
-        ax_err.plot(flight.times, np.linalg.norm(p - goal, axis=1), color=colour, label=label)
+        ax_err.plot(
+            flight.times, np.linalg.norm(p - goal, axis=1), color=colour, label=label
+        )
     ax3d.scatter(*start, color="black", marker="o", s=40, label="start")
-    ax3d.scatter(*goal, color="gold", edgecolor="black", marker="*", s=160, label="goal")
+    ax3d.scatter(
+        *goal, color="gold", edgecolor="black", marker="*", s=160, label="goal"
+    )
     _equal_box(ax3d, np.vstack([np.atleast_2d(c) for c in corners]))
     ax3d.set_xlabel("x [m]")
     ax3d.set_ylabel("y [m]")

@@ -56,7 +56,7 @@ def attitude_setpoint(
     if params.tilt_compensation:
         T = T / (np.cos(roll) * np.cos(pitch))
     T_floor = params.min_thrust_fraction * vehicle.mass * GRAVITY
-    T_tilt = T if T > T_floor else T_floor + 0.0 * T
+    T_tilt = T if T_floor < T else T_floor + 0.0 * T
     f_x = params.K_Pv * F_n[0]
     f_y = params.K_Pv * F_n[1]
     c, s = np.cos(yaw), np.sin(yaw)
@@ -114,20 +114,20 @@ def mix(thrust_torque: np.ndarray, D_inv: np.ndarray, u_max: float):
     3. yaw torque gets what room is left (scaled by s ∈ [0, 1]).
     Returns (u, number of rotors left at a limit when anything was given up).
     """
-    base = D_inv[:, 0] * thrust_torque[0]
-    roll_pitch = D_inv[:, 1] * thrust_torque[1] + D_inv[:, 2] * thrust_torque[2]
-    yaw = D_inv[:, 3] * thrust_torque[3]
+    T, tau_x, tau_y, tau_z = thrust_torque
+    roll_pitch = D_inv[:, 1] * tau_x + D_inv[:, 2] * tau_y
+    yaw = D_inv[:, 3] * tau_z
     limited = False
-    spread = max(roll_pitch) - min(roll_pitch)
-    if spread > u_max:
-        roll_pitch = roll_pitch * (u_max / spread)
+    low, high = roll_pitch.min(), roll_pitch.max()
+    if high - low > u_max:
+        scale = u_max / (high - low)
+        roll_pitch, low, high = roll_pitch * scale, low * scale, high * scale
         limited = True
-    collective = base[0]
-    low, high = -min(roll_pitch), u_max - max(roll_pitch)
-    if collective < low:
-        collective, limited = low + 0.0 * collective, True
-    elif collective > high:
-        collective, limited = high + 0.0 * collective, True
+    collective = D_inv[0, 0] * T  # every rotor carries a quarter of T
+    if collective < -low:
+        collective, limited = -low + 0.0 * collective, True
+    elif collective > u_max - high:
+        collective, limited = u_max - high + 0.0 * collective, True
     u = collective + roll_pitch
     s = 1.0
     for u_i, y_i in zip(u, yaw, strict=True):

@@ -90,14 +90,14 @@ Sensor = SphereSensor | DepthCamera
 
 
 def default_simulator_config() -> SimulatorConfig:
-    """Error-controlled RK3 at accuracy 1e-4, logging every step."""
+    """Error-controlled RK3 at accuracy 1e-4 (the logger records every step
+    through its own per-step event, so no forced publishing is needed)."""
     return SimulatorConfig(
         integration_scheme="runge_kutta3",
         max_step_size=0.1,
         accuracy=1e-4,
         use_error_control=True,
         target_realtime_rate=0.0,
-        publish_every_time_step=True,
     )
 
 
@@ -201,8 +201,9 @@ def validate_scenario(scenario: Scenario, where: str) -> None:
         distances = obstacle_distances(scenario, [scenario.start, scenario.goal])
     except RuntimeError as e:  # a mesh Drake cannot use
         raise ScenarioError(f"{where}: obstacles: {str(e).splitlines()[0]}") from e
-    for name, point, d in zip(("start", "goal"), (scenario.start, scenario.goal),
-                              distances, strict=True):
+    for name, point, d in zip(
+        ("start", "goal"), (scenario.start, scenario.goal), distances, strict=True
+    ):
         if d < radius:
             _fail(
                 where,
@@ -225,4 +226,3 @@ def load_scenario(path: str) -> Scenario:
     scenario.base_dir = os.path.dirname(os.path.abspath(path))
     validate_scenario(scenario, path)
     return scenario
-

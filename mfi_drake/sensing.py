@@ -7,6 +7,7 @@ when an obstacle is in range, else 0.0 (with r_o = 0).
 """
 
 import numpy as np
+from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
     Box as DrakeBox,
 )
@@ -35,7 +36,6 @@ from pydrake.geometry import (
 from pydrake.geometry import (
     Sphere as DrakeSphere,
 )
-from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.framework import LeafSystem
 
@@ -70,7 +70,9 @@ def register_obstacles(scene_graph: SceneGraph, scenario: sc.Scenario) -> None:
     source = scene_graph.RegisterSource("obstacles")
     for i, obstacle in enumerate(scenario.obstacles):
         instance = GeometryInstance(
-            obstacle_pose(obstacle), drake_shape(scenario, obstacle.shape), f"obstacle_{i}"
+            obstacle_pose(obstacle),
+            drake_shape(scenario, obstacle.shape),
+            f"obstacle_{i}",
         )
         instance.set_proximity_properties(ProximityProperties())
         perception = PerceptionProperties()
@@ -161,7 +163,11 @@ class VehicleGeometry(LeafSystem):
             angle = k * np.pi / 2
             arm_pose = RigidTransform(
                 RollPitchYaw(0.0, 0.0, angle),
-                [0.5 * arm_length * np.cos(angle), 0.5 * arm_length * np.sin(angle), 0.0],
+                [
+                    0.5 * arm_length * np.cos(angle),
+                    0.5 * arm_length * np.sin(angle),
+                    0.0,
+                ],
             )
             parts.append((arm_pose, DrakeBox(arm_length, 0.02, 0.02)))
             rotor_pose = RigidTransform(

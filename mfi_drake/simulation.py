@@ -78,7 +78,9 @@ def flight_metrics(flight: Flight) -> dict:
     error = np.linalg.norm(p - goal, axis=1)
     path_length = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
     if scenario.obstacles:
-        clearance = np.asarray(obstacle_distances(scenario, p)) - flight.collision_radius
+        clearance = (
+            np.asarray(obstacle_distances(scenario, p)) - flight.collision_radius
+        )
         min_clearance = float(np.min(clearance))
     else:
         min_clearance = float("inf")

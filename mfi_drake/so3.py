@@ -35,10 +35,7 @@ def norm(a: np.ndarray):
 
 def hat(w: np.ndarray) -> np.ndarray:
     """The skew-symmetric matrix of eq 6: hat(w) @ x == w × x."""
-    zero = 0.0 * w[0]
-    return np.array(
-        [[zero, -w[2], w[1]], [w[2], zero, -w[0]], [-w[1], w[0], zero]]
-    )
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 
 
 def vee(W: np.ndarray) -> np.ndarray:
@@ -49,12 +46,19 @@ def vee(W: np.ndarray) -> np.ndarray:
 def rotation_from_reference(r_ref: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Eq 16: the Rodrigues rotation taking unit r_ref to unit u.
 
-    R = I + hat(w) + hat(w)^2 / (1 + cos φ), w = r_ref × u, cos φ = r_ref·u.
+    R = I + hat(w) + hat(w)² / (1 + cos φ), w = r_ref × u, cos φ = r_ref·u.
+    Since hat(w)² = w wᵀ − |w|² I and |w|² = 1 − cos² φ, this is evaluated as
+    cos φ I + hat(w) + w wᵀ / (1 + cos φ) (same matrix, fewer products).
     Singular at u = −r_ref (1 + cos φ = 0); callers pick r_ref away from u
     (see `reference_axis`).
     """
-    W = hat(cross(r_ref, u))
-    return np.eye(3) + W + (W @ W) / (1.0 + dot(r_ref, u))
+    w = cross(r_ref, u)
+    c = dot(r_ref, u)
+    R = hat(w) + np.outer(w, w / (1.0 + c))
+    R[0, 0] += c
+    R[1, 1] += c
+    R[2, 2] += c
+    return R
 
 
 # Fallback reference vectors r_ref for eq 16, in order of preference, used
@@ -128,9 +132,11 @@ def so3_log(R: np.ndarray) -> np.ndarray:
     j = int(np.argmax([float(_value(B[i, i])) for i in range(3)]))
     a = B[:, j] / np.sqrt(B[j, j])
     s = vee(A)
-    if float(_value(dot(a, s))) < 0.0:
-        a = -a
-    elif float(_value(dot(s, s))) == 0.0 and float(_value(a[j])) < 0.0:
+    if (
+        float(_value(dot(a, s))) < 0.0
+        or float(_value(dot(s, s))) == 0.0
+        and float(_value(a[j])) < 0.0
+    ):
         a = -a
     return beta * hat(a)
 

@@ -62,12 +62,19 @@ def MfiNavigator_(T):
             self.goal = np.asarray(goal, dtype=float)
             self.collision_radius = float(collision_radius)
             self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
-            self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
+            self._obstacle = self.DeclareVectorInputPort(
+                "obstacle", OBSTACLE_SIGNAL_SIZE
+            )
             tickets = {self._state.ticket(), self._obstacle.ticket()}
-            self._terms = _shared_vector(self, "F and F_a", 6, self._calc_terms, tickets)
+            self._terms = _shared_vector(
+                self, "F and F_a", 6, self._calc_terms, tickets
+            )
             terms_ticket = {self._terms.ticket()}
             self.DeclareVectorOutputPort(
-                "obstacle_force", 3, self._calc_force, prerequisites_of_calc=terms_ticket
+                "obstacle_force",
+                3,
+                self._calc_force,
+                prerequisites_of_calc=terms_ticket,
             )
             self.DeclareVectorOutputPort(
                 "obstacle_force_terms",
@@ -78,14 +85,23 @@ def MfiNavigator_(T):
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(
-                self, other.params, other.goal, other.collision_radius, converter=converter
+                self,
+                other.params,
+                other.goal,
+                other.collision_radius,
+                converter=converter,
             )
 
         def _calc_terms(self, context):
             p, v = _position_velocity(self._state.Eval(context))
             obstacle = self._obstacle.Eval(context)
             F, F_a = fields.obstacle_field(
-                v, obstacle[:3], obstacle[3], self.goal - p, self.collision_radius, self.params
+                v,
+                obstacle[:3],
+                obstacle[3],
+                self.goal - p,
+                self.collision_radius,
+                self.params,
             )
             return np.concatenate([F, F_a])
 
@@ -127,7 +143,9 @@ def GoalAttractionSelector_(T):
             if mode is None:
                 self._mode_index = self.DeclareDiscreteState(1)
                 tickets.add(self.discrete_state_ticket(self._mode_index))
-                to_cruise = UnrestrictedUpdateEvent_[T](self._switch_to(fields.MODE_CRUISE))
+                to_cruise = UnrestrictedUpdateEvent_[T](
+                    self._switch_to(fields.MODE_CRUISE)
+                )
                 to_pd = UnrestrictedUpdateEvent_[T](self._switch_to(fields.MODE_PD))
                 self._witness = {
                     fields.MODE_PD: self.MakeWitnessFunction(
@@ -143,7 +161,9 @@ def GoalAttractionSelector_(T):
                         to_pd,
                     ),
                 }
-            self._terms = _shared_vector(self, "F_gc, F_v, F_pd", 9, self._calc_terms, tickets)
+            self._terms = _shared_vector(
+                self, "F_gc, F_v, F_pd", 9, self._calc_terms, tickets
+            )
             self.DeclareVectorOutputPort(
                 "navigation_force",
                 3,
@@ -176,7 +196,9 @@ def GoalAttractionSelector_(T):
             if self.fixed_mode is not None:
                 return self.fixed_mode
             value = context.get_discrete_state(self._mode_index).GetAtIndex(0)
-            return int(round(float(value.value() if hasattr(value, "value") else value)))
+            return int(
+                round(float(value.value() if hasattr(value, "value") else value))
+            )
 
         def set_mode(self, context, mode: int) -> None:
             """Sets the mode state (e.g. the initial mode from the initial state)."""
@@ -248,7 +270,10 @@ def AttitudePD_(T):
             self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
             tickets = {self._force.ticket(), self._state.ticket()}
             self.DeclareVectorOutputPort(
-                "thrust_torque", 4, self._calc_thrust_torque, prerequisites_of_calc=tickets
+                "thrust_torque",
+                4,
+                self._calc_thrust_torque,
+                prerequisites_of_calc=tickets,
             )
             self.DeclareVectorOutputPort(
                 "attitude_setpoint",
@@ -259,7 +284,12 @@ def AttitudePD_(T):
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(
-                self, other.vehicle, other.params, other.K_P, other.K_D, converter=converter
+                self,
+                other.vehicle,
+                other.params,
+                other.K_P,
+                other.K_D,
+                converter=converter,
             )
 
         def _setpoint(self, context):
@@ -317,4 +347,3 @@ def RotorMixer_(T):
 
 
 RotorMixer = RotorMixer_[None]
-
