@@ -187,7 +187,7 @@ def geodesic_sphere(subdivisions: int = 1) -> tuple[np.ndarray, np.ndarray]:
     for _ in range(subdivisions):
         midpoint, new_tris = {}, []
 
-        def mid(a, b):
+        def mid(a, b, midpoint=midpoint):
             key = (min(a, b), max(a, b))
             if key not in midpoint:
                 m = np.asarray(verts[a]) + np.asarray(verts[b])
