@@ -75,6 +75,25 @@ def make_plant(vehicle: Vehicle) -> QuadrotorPlant:
     )
 
 
+def add_sensor(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    scene_graph: SceneGraph,
+    plant: QuadrotorPlant,
+    geometry: VehicleGeometry,
+):
+    """Adds the scenario's sensor, named "sensor", whose output port
+    "obstacle" carries [r_o, seen] (see `sensing`)."""
+    if not isinstance(scenario.sensor, SphereSensor):
+        raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
+    sensor = builder.AddNamedSystem(
+        "sensor", SphereSensorSystem(scenario.sensor.radius)
+    )
+    builder.Connect(scene_graph.get_query_output_port(), sensor.GetInputPort("query"))
+    builder.Connect(plant.get_output_port(0), sensor.GetInputPort("state"))
+    return sensor
+
+
 def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
     """Builds the closed loop of `scenario` flown by navigator `method`."""
     if method not in NAVIGATORS:
@@ -97,13 +116,7 @@ def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
         scene_graph.get_source_pose_port(geometry.source_id),
     )
 
-    if not isinstance(scenario.sensor, SphereSensor):
-        raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
-    sensor = builder.AddNamedSystem(
-        "sensor", SphereSensorSystem(scenario.sensor.radius)
-    )
-    builder.Connect(scene_graph.get_query_output_port(), sensor.GetInputPort("query"))
-    builder.Connect(plant.get_output_port(0), sensor.GetInputPort("state"))
+    sensor = add_sensor(builder, scenario, scene_graph, plant, geometry)
 
     navigator = builder.AddNamedSystem(
         "navigator", NAVIGATORS[method](params, goal, vehicle.collision_radius)
