@@ -7,11 +7,15 @@ overrides of the navigator parameters and of Drake's SimulatorConfig.
 raises `ScenarioError` naming the file, the field and the value.
 """
 
+import dataclasses
 import math
 import os
+import types
+import typing
 from dataclasses import dataclass, field
 
 import numpy as np
+import yaml
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import SimulatorConfig
 
@@ -214,10 +218,91 @@ def validate_scenario(scenario: Scenario, where: str) -> None:
             )
 
 
+class _TaggedLoader(yaml.SafeLoader):
+    """Reads `!Tag {..}` as {"_tag": "Tag", ...} for the schema check."""
+
+
+def _construct_tagged(loader, suffix, node):
+    if isinstance(node, yaml.MappingNode):
+        data = loader.construct_mapping(node, deep=True)
+    else:
+        data = {"_value": loader.construct_object(node, deep=True)}
+    return {"_tag": suffix, **data}
+
+
+_TaggedLoader.add_multi_constructor("!", _construct_tagged)
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool)
+
+
+def _check_schema(data, schema, where: str, name: str) -> None:
+    """Checks raw YAML `data` against dataclass `schema` so that a wrong key or
+    type is reported with its field path (yaml_load_typed's own messages do
+    not always name the field). Drake's own config classes are left to
+    yaml_load_typed."""
+    shown = name or "scenario"
+    if not dataclasses.is_dataclass(schema):
+        return
+    if not isinstance(data, dict):
+        _fail(where, shown, data, f"must be a mapping of {schema.__name__} fields")
+    hints = typing.get_type_hints(schema)
+    for key, value in data.items():
+        if key == "_tag":
+            continue
+        field_name = f"{name}.{key}" if name else str(key)
+        if key not in hints or key == "base_dir":
+            _fail(where, field_name, value, f"unknown field of {schema.__name__}")
+        _check_value(value, hints[key], where, field_name)
+
+
+def _check_value(value, hint, where: str, name: str) -> None:
+    origin = typing.get_origin(hint)
+    if hint is float:
+        if not _is_number(value):
+            _fail(where, name, value, "must be a number")
+    elif hint is int:
+        if not isinstance(value, int) or isinstance(value, bool):
+            _fail(where, name, value, "must be an integer")
+    elif hint is bool:
+        if not isinstance(value, bool):
+            _fail(where, name, value, "must be true or false")
+    elif hint is str:
+        if not isinstance(value, str):
+            _fail(where, name, value, "must be a string")
+    elif origin is list:
+        if not isinstance(value, list):
+            _fail(where, name, value, "must be a list")
+        (item,) = typing.get_args(hint)
+        for i, x in enumerate(value):
+            _check_value(x, item, where, f"{name}[{i}]")
+    elif origin in (types.UnionType, typing.Union):
+        options = {t.__name__: t for t in typing.get_args(hint)}
+        tag = value.get("_tag") if isinstance(value, dict) else None
+        if tag not in options:
+            _fail(
+                where,
+                name,
+                tag or value,
+                f"must be tagged one of !{', !'.join(options)}",
+            )
+        _check_schema(value, options[tag], where, name)
+    else:
+        _check_schema(value, hint, where, name)
+
+
 def load_scenario(path: str) -> Scenario:
     """Loads and validates a scenario file; raises ScenarioError if unusable."""
     if not os.path.isfile(path):
         raise ScenarioError(f"{path}: no such scenario file")
+    try:
+        with open(path) as f:
+            raw = yaml.load(f, Loader=_TaggedLoader)
+    except (yaml.YAMLError, UnicodeDecodeError, OSError) as e:
+        message = " ".join(str(e).split())
+        raise ScenarioError(f"{path}: not valid YAML: {message}") from None
+    _check_schema(raw, Scenario, path, "")
     try:
         scenario = yaml_load_typed(schema=Scenario, filename=path)
     except Exception as e:  # yaml_load_typed raises several types

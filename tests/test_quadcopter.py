@@ -1,0 +1,104 @@
+"""§V chain: the mixer against QuadrotorPlant's own dynamics, the signs of
+roll and pitch (Drake's convention) by flying, and rotor saturation."""
+
+import numpy as np
+import pytest
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
+
+from mfi_drake.diagram import make_plant
+from mfi_drake.parameters import NavigatorParams
+from mfi_drake.quadcopter import attitude_setpoint, mix, mixer_matrix, wrap_angle
+from mfi_drake.systems import AttitudePD, RotorMixer
+from mfi_drake.vehicles import GRAVITY, VEHICLES
+
+P = NavigatorParams()
+
+
+@pytest.mark.parametrize("name", sorted(VEHICLES))
+def test_mixer_matrix_matches_the_plant_dynamics(name):
+    """[T, τ] = D u, read back from the plant's accelerations at rest."""
+    vehicle = VEHICLES[name]
+    plant = make_plant(vehicle)
+    context = plant.CreateDefaultContext()
+    rng = np.random.default_rng(0)
+    D = mixer_matrix(vehicle)
+    for _ in range(5):
+        u = rng.uniform(0.2, 1.0, size=4) * vehicle.u_max
+        plant.get_input_port(0).FixValue(context, u)
+        xdot = plant.EvalTimeDerivatives(context).CopyToVector()
+        T, tau = (D @ u)[0], (D @ u)[1:]
+        assert xdot[8] == pytest.approx(T / vehicle.mass - GRAVITY, rel=1e-12)
+        np.testing.assert_allclose(
+            xdot[9:12], tau / np.asarray(vehicle.inertia), rtol=1e-9
+        )
+
+
+def test_mix_inverts_eq8_when_feasible_and_clips_otherwise():
+    vehicle = VEHICLES["drake_default"]
+    D = mixer_matrix(vehicle)
+    D_inv = np.linalg.inv(D)
+    gamma = np.array([vehicle.weight, 0.02, -0.03, 0.005])
+    u, clipped = mix(gamma, D_inv, vehicle.u_max)
+    assert clipped == 0
+    np.testing.assert_allclose(D @ u, gamma, atol=1e-12)
+    # Too much thrust: limits hold, roll/pitch torque is kept, clipping reported.
+    gamma = np.array([30.0, 0.05, 0.0, 0.01])
+    u, clipped = mix(gamma, D_inv, vehicle.u_max)
+    assert clipped >= 1
+    assert np.all(u >= 0) and np.all(u <= vehicle.u_max + 1e-12)
+    np.testing.assert_allclose((D @ u)[1:3], gamma[1:3], atol=1e-12)
+    # Negative thrust: all rotors off, reported.
+    u, clipped = mix(np.array([-5.0, 0, 0, 0]), D_inv, vehicle.u_max)
+    np.testing.assert_array_equal(u, np.zeros(4))
+    assert clipped == 4
+
+
+def test_setpoint_signs_follow_drakes_convention():
+    vehicle = VEHICLES["drake_default"]
+    level = np.zeros(3)
+    T, roll, pitch, _ = attitude_setpoint(np.array([1.0, 0, 0]), level, 0.0, vehicle, P)
+    assert pitch > 0 and roll == 0 and T == pytest.approx(vehicle.weight)
+    _, roll, pitch, _ = attitude_setpoint(np.array([0, 1.0, 0]), level, 0.0, vehicle, P)
+    assert roll < 0 and pitch == 0  # +roll accelerates toward −y
+    # Facing +y (yaw = π/2), a +y force is a forward force: +pitch.
+    yawed = np.array([0, 0, np.pi / 2])
+    _, roll, pitch, _ = attitude_setpoint(np.array([0, 1.0, 0]), yawed, 0.0, vehicle, P)
+    assert pitch > 0 and abs(roll) < 1e-12
+    # Thrust ≤ 0 (F_n pulls down harder than gravity): finite, bounded tilts.
+    T, roll, pitch, _ = attitude_setpoint(
+        np.array([50.0, 0, -50.0]), level, 0, vehicle, P
+    )
+    assert T < 0 and pitch == pytest.approx(P.max_tilt)
+    assert wrap_angle(3 * np.pi / 2) == pytest.approx(-np.pi / 2)
+
+
+@pytest.mark.parametrize("name", sorted(VEHICLES))
+@pytest.mark.parametrize("force", [[0.3, 0, 0], [0, 0.3, 0], [0, -0.3, 0], [0, 0, 0.5]])
+def test_commanded_force_moves_the_vehicle_that_way(name, force):
+    """Open-loop in position: F_n constant, attitude PD + mixer + plant."""
+    from pydrake.systems.analysis import Simulator
+
+    vehicle = VEHICLES[name]
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(make_plant(vehicle))
+    source = builder.AddSystem(ConstantVectorSource(np.asarray(force, float)))
+    attitude = builder.AddSystem(AttitudePD(vehicle, P))
+    mixer = builder.AddSystem(RotorMixer(vehicle))
+    builder.Connect(source.get_output_port(), attitude.GetInputPort("navigation_force"))
+    builder.Connect(plant.get_output_port(0), attitude.GetInputPort("state"))
+    builder.Connect(attitude.GetOutputPort("thrust_torque"), mixer.get_input_port())
+    builder.Connect(mixer.GetOutputPort("propeller_force"), plant.get_input_port(0))
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(1.5)
+    x = plant.GetMyContextFromRoot(
+        simulator.get_context()
+    ).get_continuous_state_vector()
+    p = np.asarray(x.CopyToVector()[:3])
+    # Expected displacement of a point mass: ½ (F/m) t², less the attitude lag.
+    expected = 0.5 * np.asarray(force) / vehicle.mass * 1.5**2
+    axis = int(np.argmax(np.abs(force)))
+    assert np.sign(p[axis]) == np.sign(force[axis])
+    assert 0.5 * abs(expected[axis]) < abs(p[axis]) < 1.05 * abs(expected[axis])
+    others = [i for i in range(3) if i != axis]
+    assert np.all(np.abs(p[others]) < 0.05 * abs(p[axis]))
