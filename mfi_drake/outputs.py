@@ -9,7 +9,6 @@ from collections.abc import Iterator
 
 import numpy as np
 
-
 _UMASK = os.umask(0)
 os.umask(_UMASK)
 
