@@ -18,7 +18,7 @@ class NavigatorParams:
     """Boundary-following gain of eq 12 [N·s]."""
     r_l: float = 1.5
     """Boundary-following range of eq 13 [m], from the grown obstacle."""
-    c_perp: float = 0.05
+    c_perp: float = 0.2
     """Collision-avoidance gain c⊥ of eq 15 [N·m³]."""
     r_b: float = 0.6
     """Collision-avoidance range of eq 15 [m]; must be < r_l."""
@@ -56,7 +56,7 @@ class NavigatorParams:
     """Floor on T, as a fraction of m·g, used in eq 24 when T ≤ 0 [-]."""
     tilt_compensation: bool = True
     """Divide T by cos(roll)·cos(pitch) so the vertical force is F_Qz."""
-    attitude_natural_frequency: float = 10.0
+    attitude_natural_frequency: float = 15.0
     """ω_n of the roll/pitch/yaw loops of eq 25 [rad/s]: K_Pθ = J ω_n²."""
     attitude_damping_ratio: float = 0.9
     """ζ of eq 25's loops [-]: K_Dθ = 2 ζ ω_n J."""

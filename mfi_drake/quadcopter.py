@@ -25,14 +25,6 @@ def attitude_gains(
     return J * w * w, 2.0 * params.attitude_damping_ratio * w * J
 
 
-def _clip(x, limit: float):
-    if x > limit:
-        return limit + 0.0 * x
-    if x < -limit:
-        return -limit + 0.0 * x
-    return x
-
-
 def attitude_setpoint(
     F_n: np.ndarray,
     attitude: np.ndarray,
@@ -48,8 +40,8 @@ def attitude_setpoint(
     and turned into small-angle tilts (eq 23–24) with Drake's signs:
     pitch_d = f_x'/T, roll_d = −f_y'/T. When T is below
     min_thrust_fraction·m·g (F_n pulls down hard, T ≤ 0 included) that floor
-    is used in eq 24 so the tilts stay bounded; the tilts are clipped at
-    ±max_tilt.
+    is used in eq 24 so the tilts stay bounded; the tilt vector
+    (roll_d, pitch_d) is scaled down to norm max_tilt when longer.
     """
     roll, pitch, yaw = attitude[0], attitude[1], attitude[2]
     T = F_n[2] + vehicle.mass * GRAVITY
@@ -62,8 +54,14 @@ def attitude_setpoint(
     c, s = np.cos(yaw), np.sin(yaw)
     f_forward = c * f_x + s * f_y
     f_left = -s * f_x + c * f_y
-    pitch_d = _clip(f_forward / T_tilt, params.max_tilt)
-    roll_d = _clip(-f_left / T_tilt, params.max_tilt)
+    pitch_d = f_forward / T_tilt
+    roll_d = -f_left / T_tilt
+    tilt = np.sqrt(pitch_d * pitch_d + roll_d * roll_d)
+    if tilt > params.max_tilt:
+        # Scale, not clip per axis: the planar force keeps its direction, so
+        # terms ⟂ v stay ⟂ v (zero work) and F_v keeps braking.
+        pitch_d = pitch_d * (params.max_tilt / tilt)
+        roll_d = roll_d * (params.max_tilt / tilt)
     return np.array([T, roll_d, pitch_d, yaw_desired])
 
 
