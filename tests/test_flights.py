@@ -48,6 +48,12 @@ UNSEEN = {
         Obstacle(Box([0.5, 2.5, 2.0]), [3.0, 0.3, 1.5], [0.0, 0.0, 35.0]),
         Obstacle(Box([0.5, 2.5, 2.0]), [5.5, -0.5, 1.5], [0.0, 20.0, -30.0]),
     ],
+    # A wall far wider than the sensing radius: the goal pulls into it for long.
+    "wide_wall": [Obstacle(Box([0.2, 12.0, 3.0]), [4.0, 0.0, 1.5])],
+    "slit": [
+        Obstacle(Box([1.0, 4.0, 3.0]), [4.0, 2.7, 1.5]),
+        Obstacle(Box([1.0, 4.0, 3.0]), [4.0, -2.7, 1.5]),
+    ],
     "sphere_cluster": [
         Obstacle(Sphere(0.5), [3.0, 0.0, 1.5]),
         Obstacle(Sphere(0.5), [3.0, 1.2, 1.5]),
