@@ -17,7 +17,8 @@ from pydrake.geometry import SceneGraph
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
 
-from mfi_drake.scenario import Scenario, SphereSensor
+from mfi_drake.camera import add_depth_camera
+from mfi_drake.scenario import DepthCamera, Scenario, SphereSensor
 from mfi_drake.sensing import SphereSensor as SphereSensorSystem
 from mfi_drake.sensing import VehicleGeometry, register_obstacles
 from mfi_drake.systems import (
@@ -83,7 +84,11 @@ def add_sensor(
     geometry: VehicleGeometry,
 ):
     """Adds the scenario's sensor, named "sensor", whose output port
-    "obstacle" carries [r_o, seen] (see `sensing`)."""
+    "obstacle" carries [r_o, seen] (see `sensing`, `camera`)."""
+    if isinstance(scenario.sensor, DepthCamera):
+        return add_depth_camera(
+            builder, scenario.sensor, scene_graph, plant.get_output_port(0), geometry
+        )
     if not isinstance(scenario.sensor, SphereSensor):
         raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
     sensor = builder.AddNamedSystem(

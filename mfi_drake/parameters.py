@@ -56,6 +56,9 @@ class NavigatorParams:
     """Floor on T, as a fraction of m·g, used in eq 24 when T ≤ 0 [-]."""
     tilt_compensation: bool = True
     """Divide T by cos(roll)·cos(pitch) so the vertical force is F_Qz."""
+    yaw_follows_motion: bool = False
+    """Yaw toward the horizontal velocity (so a forward camera looks where the
+    vehicle goes, §VI-B's remark) instead of the paper's θ_y,d = 0."""
     attitude_natural_frequency: float = 15.0
     """ω_n of the roll/pitch/yaw loops of eq 25 [rad/s]: K_Pθ = J ω_n²."""
     attitude_damping_ratio: float = 0.9

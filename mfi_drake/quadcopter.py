@@ -70,6 +70,24 @@ def wrap_angle(angle):
     return angle - 2.0 * np.pi * np.floor((angle + np.pi) / (2.0 * np.pi))
 
 
+def desired_yaw(v: np.ndarray, yaw, params: NavigatorParams):
+    """θ_y,d of eq 25: 0 as in the paper, or with `yaw_follows_motion` the
+    direction of horizontal motion atan2(v_y, v_x), blended in from the
+    current yaw as the horizontal speed rises from v_stop to v_min (eq 21's
+    "v = 0" and "v ≠ 0"), so the setpoint has no jump.
+    """
+    if not params.yaw_follows_motion:
+        return 0.0 * yaw
+    speed_sq = v[0] * v[0] + v[1] * v[1]
+    if speed_sq <= params.v_stop**2:
+        return yaw
+    error = wrap_angle(np.arctan2(v[1], v[0]) - yaw)
+    if speed_sq >= params.v_min**2:
+        return yaw + error
+    weight = (np.sqrt(speed_sq) - params.v_stop) / (params.v_min - params.v_stop)
+    return yaw + weight * error
+
+
 def attitude_pd_torque(
     attitude: np.ndarray,
     attitude_rates: np.ndarray,

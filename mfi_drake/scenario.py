@@ -88,6 +88,10 @@ class DepthCamera:
     fov_y_deg: float = 60.0  # vertical field of view, degrees
     max_range: float = 6.0  # m; farther pixels are "no return"
     rate_hz: float = 30.0  # frames per second
+    # The camera's pose on the body: optical centre in the body frame [m] and
+    # orientation [deg] (zero: looking along body +x, image up = body +z).
+    position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
 
 
 Sensor = SphereSensor | DepthCamera
@@ -140,6 +144,25 @@ def _check_positive(where, name, value):
         _fail(where, name, value, "must be a finite number > 0")
 
 
+def _check_camera(where: str, camera: DepthCamera) -> None:
+    from mfi_drake.camera import MIN_DEPTH
+
+    for name in ("width", "height"):
+        value = getattr(camera, name)
+        if not isinstance(value, int) or value <= 0:
+            _fail(where, f"sensor.{name}", value, "must be a whole number > 0")
+    fov = camera.fov_y_deg
+    _check_positive(where, "sensor.fov_y_deg", fov)
+    if fov >= 180.0:
+        _fail(where, "sensor.fov_y_deg", fov, "must be < 180")
+    _check_positive(where, "sensor.max_range", camera.max_range)
+    if camera.max_range <= MIN_DEPTH:
+        _fail(where, "sensor.max_range", camera.max_range, f"must be > {MIN_DEPTH}")
+    _check_positive(where, "sensor.rate_hz", camera.rate_hz)
+    _check_vector(where, "sensor.position", camera.position)
+    _check_vector(where, "sensor.rpy_deg", camera.rpy_deg)
+
+
 def mesh_path(scenario: Scenario, shape: Convex) -> str:
     """Absolute path of a convex mesh file."""
     return os.path.join(scenario.base_dir, shape.file)
@@ -185,6 +208,8 @@ def validate_scenario(scenario: Scenario, where: str) -> None:
         _fail(where, "vehicle", scenario.vehicle, f"must be one of {sorted(VEHICLES)}")
     if isinstance(scenario.sensor, SphereSensor):
         _check_positive(where, "sensor.radius", scenario.sensor.radius)
+    elif isinstance(scenario.sensor, DepthCamera):
+        _check_camera(where, scenario.sensor)
     else:
         _fail(where, "sensor", scenario.sensor, "unknown sensor")
     for name, value, reason in validate_params(scenario.navigator):

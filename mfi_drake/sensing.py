@@ -30,6 +30,7 @@ from pydrake.geometry import (
     IllustrationProperties,
     PerceptionProperties,
     ProximityProperties,
+    RenderLabel,
     Rgba,
     SceneGraph,
 )
@@ -77,7 +78,7 @@ def register_obstacles(scene_graph: SceneGraph, scenario: sc.Scenario) -> None:
         instance.set_proximity_properties(ProximityProperties())
         perception = PerceptionProperties()
         perception.AddProperty("phong", "diffuse", OBSTACLE_RGBA)
-        perception.AddProperty("label", "id", i + 1)
+        perception.AddProperty("label", "id", RenderLabel(i + 1))
         instance.set_perception_properties(perception)
         illustration = IllustrationProperties()
         illustration.AddProperty("phong", "diffuse", OBSTACLE_RGBA)

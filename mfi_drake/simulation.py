@@ -8,7 +8,7 @@ import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from mfi_drake.diagram import FlightDiagram, build_diagram
-from mfi_drake.scenario import Scenario
+from mfi_drake.scenario import DepthCamera, Scenario
 from mfi_drake.sensing import obstacle_distances
 
 
@@ -23,6 +23,7 @@ class Flight:
     times: np.ndarray
     log: dict[str, np.ndarray]  # name -> (N, size) array, see diagram.LOG_LAYOUT
     wall_time: float
+    frames_rendered: int | None = None  # depth-camera frames (None: no camera)
     metrics: dict = field(default_factory=dict)
 
     @property
@@ -55,16 +56,22 @@ def fly(flight: FlightDiagram) -> Flight:
     simulator.Initialize()
     simulator.AdvanceTo(scenario.duration)
     wall_time = time.perf_counter() - start
+    depth = isinstance(scenario.sensor, DepthCamera)
+    sensor = flight.diagram.GetSubsystemByName("sensor")
+    frames = (
+        sensor.frames_rendered(sensor.GetMyContextFromRoot(context)) if depth else None
+    )
     log = flight.logger.FindLog(context)
     data = log.data().T
     result = Flight(
         scenario=scenario,
         method=flight.method,
-        sensor="sphere",
+        sensor="depth" if depth else "sphere",
         collision_radius=flight.vehicle.collision_radius,
         times=log.sample_times().copy(),
         log={name: data[:, s] for name, s in flight.log_slices().items()},
         wall_time=wall_time,
+        frames_rendered=frames,
     )
     result.metrics = flight_metrics(result)
     return result
@@ -92,7 +99,7 @@ def flight_metrics(flight: Flight) -> dict:
         convergence_time = float(times[outside[-1] + 1] if len(outside) else times[0])
     collided = bool(min_clearance < 0.0)
     sim_time = float(times[-1])
-    return {
+    metrics = {
         "scenario": scenario.name,
         "method": flight.method,
         "sensor": flight.sensor,
@@ -110,3 +117,6 @@ def flight_metrics(flight: Flight) -> dict:
         "steps": int(len(times)),
         "saturated_fraction": float(np.mean(flight.log["saturation"][:, 0] > 0)),
     }
+    if flight.frames_rendered is not None:
+        metrics["frames_rendered"] = flight.frames_rendered
+    return metrics

@@ -22,6 +22,7 @@ from mfi_drake.quadcopter import (
     attitude_gains,
     attitude_pd_torque,
     attitude_setpoint,
+    desired_yaw,
     mix,
     mixer_matrix,
 )
@@ -295,7 +296,8 @@ def AttitudePD_(T):
         def _setpoint(self, context):
             x = self._state.Eval(context)
             F_n = self._force.Eval(context)
-            return attitude_setpoint(F_n, x[3:6], 0.0, self.vehicle, self.params)
+            yaw_d = desired_yaw(x[6:9], x[5], self.params)
+            return attitude_setpoint(F_n, x[3:6], yaw_d, self.vehicle, self.params)
 
         def _calc_thrust_torque(self, context, output):
             x = self._state.Eval(context)

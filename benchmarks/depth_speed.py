@@ -1,0 +1,62 @@
+"""How fast the depth-camera flights of paper Fig 11 run.
+
+    python benchmarks/depth_speed.py [--repeats 3]
+
+For scenarios/pelican_cylinder.yaml and pelican_cube.yaml, flown as
+`mfi-drake run` flies them (`simulation.simulate`), prints the best wall
+time of Initialize + AdvanceTo over --repeats, the real-time factor, the
+frames the camera rendered and the integrator steps; then the same flight
+with the sphere sensor (radius = the camera's max_range) instead, so the
+camera's share of the cost shows. Rendering is single-threaded VTK (EGL);
+the machine's other load shows up as noise, hence the best of several runs.
+"""
+
+import argparse
+import dataclasses
+import os
+
+from mfi_drake.scenario import Scenario, SphereSensor, load_scenario
+from mfi_drake.simulation import Flight, simulate
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCENARIOS = ["pelican_cylinder.yaml", "pelican_cube.yaml"]
+
+
+def best_of(scenario: Scenario, repeats: int) -> Flight:
+    """The flight with the smallest wall time of `repeats` runs."""
+    return min((simulate(scenario) for _ in range(repeats)), key=lambda f: f.wall_time)
+
+
+def line(label: str, flight: Flight) -> str:
+    m = flight.metrics
+    frames = m.get("frames_rendered")
+    return (
+        f"  {label:<7} {m['sim_time']:5.1f} s simulated in {m['wall_time']:5.2f} s "
+        f"wall = {m['realtime_factor']:5.1f}x real time, "
+        f"{'-' if frames is None else frames} frames, {m['steps']} steps, "
+        f"{'success' if m['success'] else 'FAILED'}"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    if args.repeats < 1:
+        parser.error(f"--repeats = {args.repeats}: must be >= 1")
+    for name in SCENARIOS:
+        scenario = load_scenario(os.path.join(ROOT, "scenarios", name))
+        camera = scenario.sensor
+        print(
+            f"{scenario.name}: depth camera {camera.width}x{camera.height}, "
+            f"{camera.rate_hz:g} frames/s (best of {args.repeats})"
+        )
+        print(line("depth", best_of(scenario, args.repeats)))
+        sphere = dataclasses.replace(
+            scenario, sensor=SphereSensor(radius=camera.max_range)
+        )
+        print(line("sphere", best_of(sphere, args.repeats)))
+
+
+if __name__ == "__main__":
+    main()
