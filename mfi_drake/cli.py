@@ -94,6 +94,22 @@ def cmd_diagram(args) -> int:
     return 0
 
 
+def cmd_analyze(args) -> int:
+    from mfi_drake.analysis import run_analysis, summary
+    from mfi_drake.outputs import write_json
+
+    scenario = load_scenario(args.scenario)
+    out = args.out or os.path.join("out", scenario.name, "analysis")
+    report = _json_safe(run_analysis(scenario, out))
+    write_json(os.path.join(out, "analysis.json"), report)
+    if args.json:
+        print(json.dumps(report))
+    else:
+        print(summary(report))
+        print(f"wrote {out}/analysis.json and {', '.join(report['figures'])} figures")
+    return 0
+
+
 def make_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="mfi-drake",
@@ -115,6 +131,14 @@ def make_parser() -> argparse.ArgumentParser:
     )
     diagram.add_argument("--out", required=True, help="output .svg file")
     diagram.set_defaults(func=cmd_diagram)
+
+    analyze = sub.add_parser(
+        "analyze", help="linearisation, stability and region of attraction (MFI)"
+    )
+    analyze.add_argument("scenario", help="scenario YAML file")
+    analyze.add_argument("--out", help="output directory (default out/<name>/analysis)")
+    analyze.add_argument("--json", action="store_true", help="print one JSON object")
+    analyze.set_defaults(func=cmd_analyze)
     return parser
 
 

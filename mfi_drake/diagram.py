@@ -99,6 +99,37 @@ def add_sensor(
     return sensor
 
 
+def connect_controller(
+    builder: DiagramBuilder,
+    plant: QuadrotorPlant,
+    obstacle_port,
+    navigator,
+    selector,
+    attitude,
+    mixer,
+) -> None:
+    """Closes the loop: plant state → navigator (its "obstacle" input from
+    `obstacle_port`, a sensor's or, in `analysis`, a constant source's) →
+    selector → attitude PD → mixer → plant."""
+    state = plant.get_output_port(0)
+    builder.Connect(state, navigator.GetInputPort("state"))
+    builder.Connect(obstacle_port, navigator.GetInputPort("obstacle"))
+    builder.Connect(state, selector.GetInputPort("state"))
+    builder.Connect(
+        navigator.GetOutputPort("obstacle_force"),
+        selector.GetInputPort("obstacle_force"),
+    )
+    builder.Connect(
+        selector.GetOutputPort("navigation_force"),
+        attitude.GetInputPort("navigation_force"),
+    )
+    builder.Connect(state, attitude.GetInputPort("state"))
+    builder.Connect(
+        attitude.GetOutputPort("thrust_torque"), mixer.GetInputPort("thrust_torque")
+    )
+    builder.Connect(mixer.GetOutputPort("propeller_force"), plant.get_input_port(0))
+
+
 def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
     """Builds the closed loop of `scenario` flown by navigator `method`."""
     if method not in NAVIGATORS:
@@ -129,24 +160,15 @@ def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
     selector = builder.AddNamedSystem("selector", GoalAttractionSelector(params, goal))
     attitude = builder.AddNamedSystem("attitude_pd", AttitudePD(vehicle, params))
     mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
-    builder.Connect(plant.get_output_port(0), navigator.GetInputPort("state"))
-    builder.Connect(
-        sensor.GetOutputPort("obstacle"), navigator.GetInputPort("obstacle")
+    connect_controller(
+        builder,
+        plant,
+        sensor.GetOutputPort("obstacle"),
+        navigator,
+        selector,
+        attitude,
+        mixer,
     )
-    builder.Connect(plant.get_output_port(0), selector.GetInputPort("state"))
-    builder.Connect(
-        navigator.GetOutputPort("obstacle_force"),
-        selector.GetInputPort("obstacle_force"),
-    )
-    builder.Connect(
-        selector.GetOutputPort("navigation_force"),
-        attitude.GetInputPort("navigation_force"),
-    )
-    builder.Connect(plant.get_output_port(0), attitude.GetInputPort("state"))
-    builder.Connect(
-        attitude.GetOutputPort("thrust_torque"), mixer.GetInputPort("thrust_torque")
-    )
-    builder.Connect(mixer.GetOutputPort("propeller_force"), plant.get_input_port(0))
 
     mux = builder.AddNamedSystem(
         "log_mux", Multiplexer([size for _, size, _, _ in LOG_LAYOUT])
