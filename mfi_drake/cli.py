@@ -61,11 +61,60 @@ def cmd_run(args) -> int:
     flight = simulate(scenario, args.method)
     write_flight_log(os.path.join(out, "trajectory.npz"), flight)
     plot_flights(scenario, [flight], os.path.join(out, "trajectory.png"))
+    if args.html:
+        from mfi_drake.animation import write_animation
+
+        write_animation(scenario, [flight], args.html)
     if args.json:
         print(json.dumps(_json_safe(flight.metrics)))
     else:
         print(summary_line(flight.metrics))
         print(f"wrote {out}/trajectory.npz and {out}/trajectory.png")
+        if args.html:
+            print(f"wrote {args.html}")
+    return 0
+
+
+def parse_methods(text: str) -> list[str]:
+    """The comma-separated --methods value as a list of known methods."""
+    from mfi_drake.diagram import NAVIGATORS
+
+    methods = [m.strip() for m in text.split(",")]
+    if not all(m in NAVIGATORS for m in methods) or len(set(methods)) < len(methods):
+        raise UsageError(
+            f"--methods = {text!r}: must be distinct names from {sorted(NAVIGATORS)}, "
+            "separated by commas"
+        )
+    return methods
+
+
+def cmd_compare(args) -> int:
+    from mfi_drake.compare import compare, results_table, write_comparison_figure
+
+    methods = parse_methods(args.methods)
+    scenario = load_scenario(args.scenario)
+    out = args.out or os.path.join("out", scenario.name)
+    flights = compare(scenario, methods)
+    figure = os.path.join(out, "compare.png")
+    write_comparison_figure(scenario, flights, figure)
+    if args.html:
+        from mfi_drake.animation import write_animation
+
+        write_animation(scenario, flights, args.html)
+    metrics = [f.metrics for f in flights]
+    if args.json:
+        print(json.dumps(_json_safe({"scenario": scenario.name, "results": metrics})))
+    else:
+        print(results_table(metrics))
+        print(f"wrote {figure}" + (f" and {args.html}" if args.html else ""))
+    return 0
+
+
+def cmd_reproduce(args) -> int:
+    from mfi_drake.compare import reproduce
+
+    reproduce(args.scenarios, args.out)
+    print(f"wrote {args.out}/results.md and one figure per scenario")
     return 0
 
 
@@ -122,7 +171,27 @@ def make_parser() -> argparse.ArgumentParser:
     run.add_argument("--method", default="mfi", help="navigation method (default mfi)")
     run.add_argument("--out", help="output directory (default out/<scenario name>)")
     run.add_argument("--json", action="store_true", help="print one JSON object")
+    run.add_argument("--html", help="also write a Meshcat animation to this .html")
     run.set_defaults(func=cmd_run)
+
+    comp = sub.add_parser("compare", help="fly a scenario with several methods")
+    comp.add_argument("scenario", help="scenario YAML file")
+    comp.add_argument(
+        "--methods", default="mfi,apf,gf", help="comma-separated (default mfi,apf,gf)"
+    )
+    comp.add_argument("--out", help="output directory (default out/<scenario name>)")
+    comp.add_argument("--json", action="store_true", help="print one JSON object")
+    comp.add_argument("--html", help="also write a Meshcat animation to this .html")
+    comp.set_defaults(func=cmd_compare)
+
+    rep = sub.add_parser(
+        "reproduce", help="the paper's §VI-A comparison: figures and results.md"
+    )
+    rep.add_argument(
+        "--scenarios", default="scenarios", help="directory of the paper's scenarios"
+    )
+    rep.add_argument("--out", default="out/reproduce", help="output directory")
+    rep.set_defaults(func=cmd_reproduce)
 
     diagram = sub.add_parser("diagram", help="draw the built diagram as SVG (Graphviz)")
     diagram.add_argument("scenario", help="scenario YAML file")
@@ -150,10 +219,17 @@ def _check_method(args) -> None:
         raise UsageError(f"--method = {method!r}: must be one of {sorted(NAVIGATORS)}")
 
 
+def _check_html(args) -> None:
+    html = getattr(args, "html", None)
+    if html is not None and not html.endswith(".html"):
+        raise UsageError(f"--html = {html!r}: must name a .html file")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = make_parser().parse_args(argv)
     try:
         _check_method(args)
+        _check_html(args)
         return args.func(args)
     except (ScenarioError, UsageError) as e:
         print(f"mfi-drake: error: {e}", file=sys.stderr)

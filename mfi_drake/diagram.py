@@ -17,6 +17,11 @@ from pydrake.geometry import SceneGraph
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
 
+from mfi_drake.baseline_systems import (
+    ApfNavigator,
+    GfNavigator,
+    PotentialGoalAttraction,
+)
 from mfi_drake.camera import add_depth_camera
 from mfi_drake.scenario import DepthCamera, Scenario, SphereSensor
 from mfi_drake.sensing import SphereSensor as SphereSensorSystem
@@ -42,7 +47,23 @@ LOG_LAYOUT: list[tuple[str, int, str, str]] = [
     ("saturation", 1, "mixer", "saturation"),
 ]
 
-NAVIGATORS = {"mfi": MfiNavigator}
+# method -> its navigator, constructed as (parameters, goal, collision radius).
+NAVIGATORS = {"mfi": MfiNavigator, "apf": ApfNavigator, "gf": GfNavigator}
+
+
+def method_params(scenario: Scenario, method: str):
+    """The parameters of `method`'s navigator: scenario.navigator for MFI,
+    scenario.apf / scenario.gf for the baselines."""
+    return {"mfi": scenario.navigator, "apf": scenario.apf, "gf": scenario.gf}[method]
+
+
+def make_goal_attraction(scenario: Scenario, method: str):
+    """The system adding the goal part to F_o: MFI's eq 16–21 selector, or
+    the baselines' always-PD potential attraction with their own gains."""
+    goal = np.asarray(scenario.goal, float)
+    if method == "mfi":
+        return GoalAttractionSelector(scenario.navigator, goal)
+    return PotentialGoalAttraction(method_params(scenario, method).attraction, goal)
 
 
 @dataclass
@@ -54,7 +75,7 @@ class FlightDiagram:
     vehicle: Vehicle
     method: str
     plant: QuadrotorPlant
-    selector: GoalAttractionSelector
+    selector: GoalAttractionSelector | PotentialGoalAttraction
     scene_graph: SceneGraph
     logger: VectorLogSink
 
@@ -155,9 +176,14 @@ def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
     sensor = add_sensor(builder, scenario, scene_graph, plant, geometry)
 
     navigator = builder.AddNamedSystem(
-        "navigator", NAVIGATORS[method](params, goal, vehicle.collision_radius)
+        "navigator",
+        NAVIGATORS[method](
+            method_params(scenario, method), goal, vehicle.collision_radius
+        ),
     )
-    selector = builder.AddNamedSystem("selector", GoalAttractionSelector(params, goal))
+    selector = builder.AddNamedSystem(
+        "selector", make_goal_attraction(scenario, method)
+    )
     attitude = builder.AddNamedSystem("attitude_pd", AttitudePD(vehicle, params))
     mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
     connect_controller(

@@ -65,19 +65,28 @@ class NavigatorParams:
     """ζ of eq 25's loops [-]: K_Dθ = 2 ζ ω_n J."""
 
 
-def validate_params(params: NavigatorParams) -> list[tuple[str, object, str]]:
-    """Problems with `params` as (field, value, reason) triples; [] if none."""
+def field_problems(params, prefix: str = "") -> list[tuple[str, object, str]]:
+    """Every bool field a bool, every other field a finite number > 0 (nested
+    dataclasses checked field by field, named "outer.inner")."""
     problems = []
     for f in dataclasses.fields(params):
         value = getattr(params, f.name)
-        if f.type is bool:
+        name = prefix + f.name
+        if dataclasses.is_dataclass(value):
+            problems += field_problems(value, name + ".")
+        elif f.type is bool:
             if not isinstance(value, bool):
-                problems.append((f.name, value, "must be true or false"))
-            continue
-        if not isinstance(value, int | float) or not math.isfinite(value):
-            problems.append((f.name, value, "must be a finite number"))
+                problems.append((name, value, "must be true or false"))
+        elif not isinstance(value, int | float) or not math.isfinite(value):
+            problems.append((name, value, "must be a finite number"))
         elif value <= 0.0:
-            problems.append((f.name, value, "must be > 0"))
+            problems.append((name, value, "must be > 0"))
+    return problems
+
+
+def validate_params(params: NavigatorParams) -> list[tuple[str, object, str]]:
+    """Problems with `params` as (field, value, reason) triples; [] if none."""
+    problems = field_problems(params)
     if not problems:
         if params.r_b >= params.r_l:
             problems.append(("r_b", params.r_b, f"must be < r_l = {params.r_l}"))

@@ -19,7 +19,8 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import SimulatorConfig
 
-from mfi_drake.parameters import NavigatorParams, validate_params
+from mfi_drake.baselines import ApfParams, GfParams, baseline_problems
+from mfi_drake.parameters import NavigatorParams, field_problems, validate_params
 from mfi_drake.vehicles import VEHICLES
 
 
@@ -119,6 +120,8 @@ class Scenario:
     sensor: Sensor = field(default_factory=SphereSensor)
     obstacles: list[Obstacle] = field(default_factory=list)
     navigator: NavigatorParams = field(default_factory=NavigatorParams)
+    apf: ApfParams = field(default_factory=ApfParams)  # the APF baseline's gains
+    gf: GfParams = field(default_factory=GfParams)  # the GF baseline's gains
     simulator: SimulatorConfig = field(default_factory=default_simulator_config)
     goal_tolerance: float = 0.1  # m, "reached" radius
     # Directory that relative mesh paths are resolved against (not in YAML).
@@ -214,6 +217,10 @@ def validate_scenario(scenario: Scenario, where: str) -> None:
         _fail(where, "sensor", scenario.sensor, "unknown sensor")
     for name, value, reason in validate_params(scenario.navigator):
         _fail(where, f"navigator.{name}", value, reason)
+    for key in ("apf", "gf"):
+        params = getattr(scenario, key)
+        for name, value, reason in field_problems(params) or baseline_problems(params):
+            _fail(where, f"{key}.{name}", value, reason)
     sim = scenario.simulator
     _check_positive(where, "simulator.accuracy", sim.accuracy)
     _check_positive(where, "simulator.max_step_size", sim.max_step_size)

@@ -45,6 +45,7 @@ from mfi_drake.meshes import obstacle_pose
 
 OBSTACLE_SIGNAL_SIZE = 4
 OBSTACLE_RGBA = Rgba(0.55, 0.55, 0.6, 0.6)
+VEHICLE_RGBA = Rgba(0.1, 0.3, 0.8, 1.0)
 
 
 def drake_shape(scenario: sc.Scenario, shape):
@@ -155,7 +156,13 @@ class VehicleGeometry(LeafSystem):
     neither the sphere sensor nor a camera can see it.
     """
 
-    def __init__(self, scene_graph: SceneGraph, arm_length: float, rotor_radius: float):
+    def __init__(
+        self,
+        scene_graph: SceneGraph,
+        arm_length: float,
+        rotor_radius: float,
+        rgba: Rgba = VEHICLE_RGBA,
+    ):
         super().__init__()
         self._source = scene_graph.RegisterSource("vehicle")
         self.frame_id = scene_graph.RegisterFrame(self._source, GeometryFrame("body"))
@@ -178,7 +185,7 @@ class VehicleGeometry(LeafSystem):
         for i, (pose, shape) in enumerate(parts):
             instance = GeometryInstance(pose, shape, f"vehicle_{i}")
             illustration = IllustrationProperties()
-            illustration.AddProperty("phong", "diffuse", Rgba(0.1, 0.3, 0.8, 1.0))
+            illustration.AddProperty("phong", "diffuse", rgba)
             instance.set_illustration_properties(illustration)
             scene_graph.RegisterGeometry(self._source, self.frame_id, instance)
         self._state = self.DeclareVectorInputPort("state", 12)

@@ -50,8 +50,9 @@ def fly(flight: FlightDiagram) -> Flight:
     x0 = np.zeros(12)
     x0[0:3] = scenario.start
     flight.plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
-    selector_context = flight.selector.GetMyMutableContextFromRoot(context)
-    flight.selector.set_mode(selector_context, flight.selector.initial_mode(x0))
+    if flight.selector.num_discrete_state_groups():  # eq 21's mode (MFI only)
+        selector_context = flight.selector.GetMyMutableContextFromRoot(context)
+        flight.selector.set_mode(selector_context, flight.selector.initial_mode(x0))
     start = time.perf_counter()
     simulator.Initialize()
     simulator.AdvanceTo(scenario.duration)

@@ -48,17 +48,20 @@ def _shared_vector(system, description, size, calc, tickets):
     )
 
 
-@TemplateSystem.define("MfiNavigator_")
-def MfiNavigator_(T):
+@TemplateSystem.define("ObstacleNavigator_")
+def ObstacleNavigator_(T):
     class Impl(LeafSystem_[T]):
-        """The MFI obstacle field F_o = F + F_a (eq 11–15).
+        """An obstacle field F_o = A + B as a system, its two terms (A, B)
+        given by `field(v, r_o, seen, r_g, collision_radius, params)` (for MFI
+        `fields.obstacle_field`: A = F, B = F_a of eq 11–15).
 
         Inputs: "state" (12), "obstacle" [r_o, seen] from any sensor.
-        Outputs: "obstacle_force" F_o (3), "obstacle_force_terms" [F, F_a] (6).
+        Outputs: "obstacle_force" F_o (3), "obstacle_force_terms" [A, B] (6).
         """
 
-        def _construct(self, params, goal, collision_radius, converter=None):
+        def _construct(self, field, params, goal, collision_radius, converter=None):
             LeafSystem_[T].__init__(self, converter)
+            self.field = field
             self.params = params
             self.goal = np.asarray(goal, dtype=float)
             self.collision_radius = float(collision_radius)
@@ -68,7 +71,7 @@ def MfiNavigator_(T):
             )
             tickets = {self._state.ticket(), self._obstacle.ticket()}
             self._terms = _shared_vector(
-                self, "F and F_a", 6, self._calc_terms, tickets
+                self, "obstacle force terms", 6, self._calc_terms, tickets
             )
             terms_ticket = {self._terms.ticket()}
             self.DeclareVectorOutputPort(
@@ -87,6 +90,7 @@ def MfiNavigator_(T):
         def _construct_copy(self, other, converter=None):
             Impl._construct(
                 self,
+                other.field,
                 other.params,
                 other.goal,
                 other.collision_radius,
@@ -96,7 +100,7 @@ def MfiNavigator_(T):
         def _calc_terms(self, context):
             p, v = _position_velocity(self._state.Eval(context))
             obstacle = self._obstacle.Eval(context)
-            F, F_a = fields.obstacle_field(
+            A, B = self.field(
                 v,
                 obstacle[:3],
                 obstacle[3],
@@ -104,7 +108,7 @@ def MfiNavigator_(T):
                 self.collision_radius,
                 self.params,
             )
-            return np.concatenate([F, F_a])
+            return np.concatenate([A, B])
 
         def _calc_force(self, context, output):
             terms = self._terms.Eval(context)
@@ -113,7 +117,12 @@ def MfiNavigator_(T):
     return Impl
 
 
-MfiNavigator = MfiNavigator_[None]
+ObstacleNavigator = ObstacleNavigator_[None]
+
+
+def MfiNavigator(params, goal, collision_radius: float):
+    """The MFI obstacle field F_o = F + F_a (eq 11–15); terms [F, F_a]."""
+    return ObstacleNavigator(fields.obstacle_field, params, goal, collision_radius)
 
 
 @TemplateSystem.define("GoalAttractionSelector_")

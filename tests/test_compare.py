@@ -1,0 +1,148 @@
+"""The comparison commands: one comparison end to end, the JSON contract, the
+claim verdicts, reproduce's files, the Meshcat animation and bad input."""
+
+import json
+import os
+
+import pytest
+
+from mfi_drake.cli import main
+from mfi_drake.compare import (
+    CLAIMS,
+    PAPER_SCENARIOS,
+    claim_lines,
+    reproduce,
+    results_table,
+)
+
+from .conftest import SCENARIOS
+
+WALL = os.path.join(SCENARIOS, "planar_wall.yaml")
+
+
+def test_compare_json_on_the_wall_gives_the_paper_outcomes(tmp_path, capsys):
+    assert (
+        main(
+            ["compare", WALL, "--methods", "mfi,apf", "--json", "--out", str(tmp_path)]
+        )
+        == 0
+    )
+    out = json.loads(capsys.readouterr().out)
+    assert out["scenario"] == "planar_wall"
+    assert [r["method"] for r in out["results"]] == ["mfi", "apf"]
+    mfi, apf = out["results"]
+    assert mfi["success"] and mfi["min_clearance"] > 0.0
+    # APF is trapped in front of the wall (its face is 4.1 m from the goal):
+    # short of the goal, but no collision
+    assert not apf["reached"] and not apf["collided"]
+    assert 4.1 < apf["final_error"] < 6.0
+    for result in out["results"]:  # each entry is the run command's JSON
+        assert {"scenario", "method", "reached", "collided", "path_length"} <= set(
+            result
+        )
+    assert (tmp_path / "compare.png").stat().st_size > 10_000
+
+
+def test_run_json_carries_the_method_and_html_is_written(tmp_path, capsys):
+    html = tmp_path / "flight.html"
+    args = ["run", WALL, "--method", "gf", "--json", "--out", str(tmp_path)]
+    assert main([*args, "--html", str(html)]) == 0
+    assert json.loads(capsys.readouterr().out)["method"] == "gf"
+    text = html.read_text()
+    assert text.lstrip().lower().startswith("<!doctype html") or "<html" in text[:500]
+    assert "set_animation" in text or len(text) > 100_000
+    assert not [p for p in os.listdir(tmp_path) if p.startswith(".tmp-")]
+
+
+@pytest.mark.parametrize("value", ["mfi,foo", "mfi,mfi", "", "MFI"])
+def test_bad_methods_exit_2_with_one_line(value, capsys):
+    assert main(["compare", WALL, "--methods", value]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--methods" in err and repr(value) in err
+
+
+def test_html_must_name_an_html_file(tmp_path, capsys):
+    assert main(["compare", WALL, "--html", str(tmp_path / "a.png")]) == 2
+    assert "--html" in capsys.readouterr().err
+
+
+def metrics(scenario, method, success=True, collided=False, path=10.0, time=12.0):
+    return {
+        "scenario": scenario,
+        "method": method,
+        "success": success,
+        "reached": success,
+        "collided": collided,
+        "path_length": path,
+        "convergence_time": time if success else None,
+        "min_clearance": -0.1 if collided else 0.2,
+        "final_error": 0.0 if success else 4.0,
+    }
+
+
+def paper_results(**changes):
+    """Metrics in which every claim holds, then `changes` applied."""
+    results = {
+        name: {m: metrics(name, m) for m in ("mfi", "apf", "gf")}
+        for name in PAPER_SCENARIOS
+    }
+    for name in ("planar_wall", "three_spheres"):
+        results[name]["apf"] = metrics(name, "apf", success=False)
+    results["planar_wall"]["gf"] = metrics("planar_wall", "gf", path=11.0)
+    results["three_spheres"]["gf"] = metrics("three_spheres", "gf", path=11, time=13)
+    for key, value in changes.items():
+        name, method = key.split("__")
+        results[name][method] = value
+    return results
+
+
+def verdicts(results):
+    return [claim(results)[0] for _, claim in CLAIMS]
+
+
+def test_claims_hold_on_paper_like_numbers_and_fail_one_at_a_time():
+    assert verdicts(paper_results()) == [True] * 4
+    collided = metrics("planar_wall", "apf", success=False, collided=True)
+    assert verdicts(paper_results(planar_wall__apf=collided))[0] is False
+    short_gf = metrics("planar_wall", "gf", path=9.0)
+    assert verdicts(paper_results(planar_wall__gf=short_gf))[1] is False
+    quick_gf = metrics("three_spheres", "gf", path=11.0, time=11.0)
+    assert verdicts(paper_results(three_spheres__gf=quick_gf)) == [
+        True,
+        True,
+        False,
+        True,
+    ]
+    lost_mfi = metrics("tree", "mfi", success=False)
+    assert verdicts(paper_results(tree__mfi=lost_mfi))[3] is False
+    lines = claim_lines(paper_results(three_spheres__gf=quick_gf))
+    assert len(lines) == 4 and "**did not hold**" in lines[2]
+    assert "11.00 s" in lines[2]  # the numbers say why
+
+
+def test_results_table_has_a_row_per_run():
+    rows = results_table([metrics("a", "mfi"), metrics("a", "apf", success=False)])
+    lines = rows.splitlines()
+    assert len(lines) == 4 and "| a | APF | no | no |" in lines[3]
+    assert "12.00 s" in lines[2] and "–" in lines[3]
+
+
+def test_reproduce_writes_every_figure_and_results(tmp_path):
+    # The paper's scenarios, cut to 0.5 s: the files, not the outcomes.
+    scenario_dir = tmp_path / "scenarios"
+    for name in PAPER_SCENARIOS:
+        with open(os.path.join(SCENARIOS, f"{name}.yaml")) as f:
+            text = f.read()
+        text = text.replace("duration: 40.0", "duration: 0.5")
+        text = text.replace("meshes/", os.path.join(SCENARIOS, "meshes") + "/")
+        scenario_dir.mkdir(exist_ok=True)
+        (scenario_dir / f"{name}.yaml").write_text(text)
+    out = tmp_path / "out"
+    results = reproduce(str(scenario_dir), str(out), progress=lambda line: None)
+    assert sorted(results) == sorted(PAPER_SCENARIOS)
+    for name in PAPER_SCENARIOS:
+        assert (out / f"{name}.png").stat().st_size > 10_000
+        assert sorted(results[name]) == ["apf", "gf", "mfi"]
+    text = (out / "results.md").read_text()
+    assert text.count("| planar_wall |") == 3
+    assert text.count("did not hold") + text.count("**held**") == 4
