@@ -687,42 +687,72 @@ def reduced_model_constants(scenario: Scenario) -> dict:
     }
 
 
-def certified_quadratic(variables: list[Variable], dynamics: list) -> np.ndarray:
-    """S with {xᵀ S x ≤ 1} the region of attraction of x = 0 certified by
-    Drake's `RegionOfAttraction` (SOS, SCS) for ẋ = dynamics(x) polynomial.
+def certified_quadratic(
+    variables: list[Variable],
+    dynamics: list,
+    scales: np.ndarray | None = None,
+    time_scale: float = 1.0,
+) -> np.ndarray:
+    """S with {xᵀ S x ≤ 1} in the region of attraction of x = 0, certified by
+    Drake's `RegionOfAttraction` (SOS, SCS solver) for ẋ = dynamics(x)
+    polynomial in `variables`.
 
-    The Lyapunov candidate is Drake's default, the quadratic from the
-    Lyapunov equation of the linearisation; the SOS program finds its
-    largest certified level set.
+    The program is posed in the coordinates z = diag(scales) x and the time
+    time_scale · t (both only for the solver's conditioning); the Lyapunov
+    candidate is Drake's default there, the quadratic from the Lyapunov
+    equation of the linearisation, and the SOS program finds its largest
+    certified level set, mapped back to x here.
     """
-    system = SymbolicVectorSystem(state=variables, dynamics=dynamics)
-    context = system.CreateDefaultContext()
+    scales = np.ones(len(variables)) if scales is None else np.asarray(scales)
+    z = [Variable(f"z{i}") for i in range(len(variables))]
+    back = {x: z_i / d for x, z_i, d in zip(variables, z, scales, strict=True)}
+    scaled = [
+        (d * f).Substitute(back) / time_scale
+        for d, f in zip(scales, dynamics, strict=True)
+    ]
+    system = SymbolicVectorSystem(state=z, dynamics=scaled)
     options = RegionOfAttractionOptions()
-    options.state_variables = np.array(variables)
+    options.state_variables = np.array(z)
     options.solver_id = ScsSolver.id()
-    V = RegionOfAttraction(system, context, options)
-    hessian = Jacobian(Jacobian([V], variables)[0], variables)
-    return 0.5 * Evaluate(hessian)
+    V = RegionOfAttraction(system, system.CreateDefaultContext(), options)
+    S_z = 0.5 * Evaluate(Jacobian(Jacobian([V], z)[0], z))
+    return np.diag(scales) @ S_z @ np.diag(scales)
 
 
 def roa_sos(scenario: Scenario) -> dict:
     """The SOS certificate on the reduced model, as a ball of (e, v) offsets at
-    θ = ω = 0, with the model's validity checked inside it."""
-    constants = reduced_model_constants(scenario)
+    θ = ω = 0, and the part of it where the model has no saturation.
+
+    Scaling for the solver: the tilt and its rate in metres of the position
+    error that tilt balances (m g/(K_Pv K_P) per rad, and per rad/s over
+    ω_n), time in units of 1/√(ω_p ω_n), ω_p = √(K_P/m), ω_n = √a.
+    """
+    c = reduced_model_constants(scenario)
     params = scenario.navigator
     variables = [Variable(n) for n in ("e", "v", "theta", "omega")]
+    metres_per_rad = c["m"] * GRAVITY / (c["K_Pv"] * c["K_P"])
+    omega_n = np.sqrt(c["a"])
     start = time.perf_counter()
     S = certified_quadratic(
-        variables, reduced_terminal_dynamics(variables, **constants)
+        variables,
+        reduced_terminal_dynamics(variables, **c),
+        scales=np.array([1.0, 1.0, metres_per_rad, metres_per_rad / omega_n]),
+        time_scale=float(np.sqrt(np.sqrt(c["K_P"] / c["m"]) * omega_n)),
     )
     seconds = time.perf_counter() - start
-    radius = float(1.0 / np.sqrt(np.linalg.eigvalsh(S[:2, :2]).max()))
+    S_ev = np.linalg.eigvalsh(S[:2, :2]).max()
+    radius = float(1.0 / np.sqrt(S_ev))
+    # Sublevel sets {V ≤ ρ} are invariant; on one, |θ| ≤ √(ρ (S⁻¹)_θθ) and
+    # |K_P e + K_D v| ≤ √(ρ kᵀ S⁻¹ k). The largest ρ ≤ 1 keeping both inside
+    # the tilt limit and the |F_pd| saturation, and the ball it contains:
     S_inv = np.linalg.inv(S)
-    max_tilt = float(np.sqrt(S_inv[2, 2]))
     k = np.array([params.K_P, params.K_D, 0.0, 0.0])
-    max_force = float(np.sqrt(k @ S_inv @ k))
+    rho = min(
+        1.0, params.max_tilt**2 / S_inv[2, 2], params.max_pd_force**2 / (k @ S_inv @ k)
+    )
     return {
-        "radius": radius,
+        "radius": float(np.sqrt(rho / S_ev)),
+        "radius_reduced_model": radius,
         "units": "norm of the offset (Δp [m], Δv [m/s]) from hover at the goal",
         "model": (
             "reduced 4-state polynomial model of one horizontal axis in PD "
@@ -731,15 +761,16 @@ def roa_sos(scenario: Scenario) -> dict:
         ),
         "method": (
             "Drake RegionOfAttraction (SOS, SCS solver), Lyapunov candidate "
-            "from the linearisation; radius = largest (e, v) disc at θ = ω = 0 "
-            "inside {V ≤ 1}"
+            "from the (scaled) linearisation, certifying {V ≤ 1}; "
+            "radius_reduced_model = largest (e, v) disc at θ = ω = 0 inside it; "
+            "radius = the same inside the largest certified sublevel set "
+            "{V ≤ ρ} on which |θ| ≤ max_tilt and |F_pd| ≤ max_pd_force, where "
+            "the reduced model is the vehicle's controller"
         ),
+        "rho_without_saturation": float(rho),
         "lyapunov_S": S.tolist(),
-        "max_tilt_in_certified_set": max_tilt,
-        "max_pd_force_in_certified_set": max_force,
-        "saturation_free": bool(
-            max_tilt <= params.max_tilt and max_force <= params.max_pd_force
-        ),
+        "max_tilt_in_certified_set": float(np.sqrt(S_inv[2, 2])),
+        "max_pd_force_in_certified_set": float(np.sqrt(k @ S_inv @ k)),
         "solve_seconds": seconds,
     }
 

@@ -177,6 +177,13 @@ def plot_roa(sos: dict, reduced, sampled: dict, radii, directions, path: str) ->
     u = np.array([np.cos(q), np.sin(q)])
     scale = 1.0 / np.sqrt(np.einsum("ik,ij,jk->k", u, S, u))
     ax.plot(*(u * scale), color="tab:purple", label="SOS certified {V ≤ 1} (θ = ω = 0)")
+    rho = sos["rho_without_saturation"]
+    ax.plot(
+        *(u * scale * np.sqrt(rho)),
+        color="tab:purple",
+        ls="--",
+        label=f"{{V ≤ {rho:.3g}}}: no saturation on it",
+    )
     ax.plot(
         *(u * sos["radius"]), color="tab:purple", ls=":", label="SOS ball (roa_sos)"
     )
@@ -197,7 +204,7 @@ def plot_roa(sos: dict, reduced, sampled: dict, radii, directions, path: str) ->
                 color="tab:green" if ok else "tab:red",
                 s=14,
             )
-    lim = 4.0 * sos["radius"]
+    lim = 1.1 * max(scale.max(), 2.0)
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
     ax.set_aspect("equal")

@@ -171,6 +171,8 @@ def test_gain_sweep_finds_the_routh_hurwitz_boundaries():
     }
     sweep = analysis.gain_sweep(SCENARIO)
     for gain, boundaries in expected.items():
+        low, high = sweep[gain]["factors"][[0, -1]]
+        boundaries = [(f, side) for f, side in boundaries if low < f < high]
         found = sweep[gain]["stability_lost"]
         assert [c["unstable"] for c in found] == [side for _, side in boundaries]
         for c, (factor, _) in zip(found, boundaries, strict=True):
@@ -237,10 +239,24 @@ def test_reduced_model_has_the_lateral_modes_of_the_full_closed_loop():
 
 def test_sos_certificate_holds_for_the_reduced_model():
     sos = analysis.roa_sos(SCENARIO)
-    assert sos["saturation_free"] and 0.1 < sos["radius"]
+    assert 0.1 < sos["radius"] <= sos["radius_reduced_model"]
+    S = np.asarray(sos["lyapunov_S"])
+    constants = analysis.reduced_model_constants(SCENARIO)
+    # V̇ = 2 xᵀ S f(x) < 0 at random points of the certified set {xᵀ S x ≤ 1}.
+    rng = np.random.default_rng(1)
+    y = rng.normal(size=(4, 20000))
+    y *= rng.uniform(0.01, 1.0, size=20000) / np.linalg.norm(y, axis=0)
+    x = np.linalg.solve(np.linalg.cholesky(S).T, y)  # xᵀ S x = |y|²
+    f = np.array(analysis.reduced_terminal_dynamics(x, **constants))
+    assert np.all(np.einsum("ik,ij,jk->k", x, S, f) < 0.0)
+    # Every start on the certified ball converges.
     angles = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
-    boundary = analysis.reduced_model_boundary(SCENARIO, angles, largest=sos["radius"])
-    assert np.all(boundary == sos["radius"])
+    largest = sos["radius_reduced_model"]
+    boundary = analysis.reduced_model_boundary(SCENARIO, angles, largest=largest)
+    assert np.all(boundary == largest)
+    # On the part quoted for the vehicle, no saturation is active.
+    rho = sos["rho_without_saturation"]
+    assert rho * np.linalg.inv(S)[2, 2] <= PARAMS.max_tilt**2 + 1e-12
 
 
 def test_sampled_region_of_attraction_detects_divergence():
