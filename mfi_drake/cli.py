@@ -143,6 +143,58 @@ def cmd_diagram(args) -> int:
     return 0
 
 
+def cmd_sweep(args) -> int:
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise UsageError(
+            "the sweep needs Dask distributed: pip install 'mfi_drake[sweep]'"
+        ) from None
+    from mfi_drake.diagram import NAVIGATORS
+    from mfi_drake.sweep import SweepConfig, dask_client, run_sweep, summary_table
+
+    methods = parse_methods(args.methods) if args.methods else list(NAVIGATORS)
+    for name, value, least in (("--n", args.n, 1), ("--workers", args.workers, 1)):
+        if value < least:
+            raise UsageError(f"{name} = {value}: must be ≥ {least}")
+    if args.seed < 0:
+        raise UsageError(f"--seed = {args.seed}: must be ≥ 0")
+    for d in args.density:
+        if not (math.isfinite(d) and d >= 0.0):
+            raise UsageError(f"--density = {d}: must be a finite number ≥ 0")
+    config = SweepConfig(
+        n=args.n,
+        seed=args.seed,
+        methods=methods,
+        densities=list(dict.fromkeys(args.density)),
+        sensor=args.sensor,
+        out=args.out,
+    )
+    try:
+        with dask_client(args.workers, args.scheduler) as client:
+            run = run_sweep(config, client)
+    except KeyboardInterrupt:
+        print(
+            f"mfi-drake: interrupted; finished flights are in {args.out}/results.jsonl,"
+            " rerun the same command to fly the rest",
+            file=sys.stderr,
+        )
+        return 130
+    except OSError as e:  # no scheduler at that address
+        raise UsageError(f"--scheduler = {args.scheduler!r}: {e}") from None
+    if args.json:
+        print(json.dumps(_json_safe(run.summary)))
+    else:
+        print(summary_table(run.summary))
+        print(
+            f"flew {run.ran}, found {run.skipped} done; wrote {args.out}/: "
+            "results.jsonl, summary.json, table.md, sweep.png, failures/"
+        )
+    for line in run.lost:
+        print(f"mfi-drake: not run (rerun to retry): {line}", file=sys.stderr)
+    return 1 if run.lost else 0
+
+
 def cmd_analyze(args) -> int:
     from mfi_drake.analysis import run_analysis, summary
     from mfi_drake.outputs import write_json
@@ -192,6 +244,38 @@ def make_parser() -> argparse.ArgumentParser:
     )
     rep.add_argument("--out", default="out/reproduce", help="output directory")
     rep.set_defaults(func=cmd_reproduce)
+
+    sweep = sub.add_parser(
+        "sweep", help="Monte Carlo benchmark on random obstacle fields (Dask)"
+    )
+    sweep.add_argument("--n", type=int, default=30, help="fields per density")
+    sweep.add_argument("--seed", type=int, default=0, help="seed of the fields")
+    sweep.add_argument(
+        "--methods", help="comma-separated, e.g. mfi,apf,gf (default: all methods)"
+    )
+    from mfi_drake.generator import DEFAULT_DENSITY
+
+    sweep.add_argument(
+        "--density",
+        type=float,
+        nargs="+",
+        default=[DEFAULT_DENSITY],
+        help="obstacles per m³ of the 8×5×5 m box around the start–goal line "
+        f"(default {DEFAULT_DENSITY:g}); several values sweep them all",
+    )
+    sweep.add_argument("--sensor", choices=["sphere", "depth"], default="sphere")
+    sweep.add_argument(
+        "--workers",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="local worker processes (default: one per core)",
+    )
+    sweep.add_argument(
+        "--scheduler", help="address of a running Dask scheduler (tcp://host:8786)"
+    )
+    sweep.add_argument("--out", default="out/sweep", help="output directory")
+    sweep.add_argument("--json", action="store_true", help="print one JSON object")
+    sweep.set_defaults(func=cmd_sweep)
 
     diagram = sub.add_parser("diagram", help="draw the built diagram as SVG (Graphviz)")
     diagram.add_argument("scenario", help="scenario YAML file")

@@ -311,7 +311,9 @@ def _check_value(value, hint, where: str, name: str) -> None:
             _check_value(x, item, where, f"{name}[{i}]")
     elif origin in (types.UnionType, typing.Union):
         options = {t.__name__: t for t in typing.get_args(hint)}
-        tag = value.get("_tag") if isinstance(value, dict) else None
+        # Untagged is the first alternative, as Drake writes and reads it.
+        first = next(iter(options))
+        tag = value.get("_tag", first) if isinstance(value, dict) else None
         if tag not in options:
             _fail(
                 where,

@@ -1,0 +1,302 @@
+"""The Monte Carlo sweep: the field generator's guarantees, the reference path
+against closed forms, the statistics against hand-computed values, the
+results file's resume, and a sweep on two Dask worker processes."""
+
+import dataclasses
+import importlib.util
+import json
+import math
+import os
+import sys
+
+import distributed
+import numpy as np
+import pytest
+
+from mfi_drake import generator, sweep
+from mfi_drake import scenario as sc
+from mfi_drake.cli import main
+from mfi_drake.meshes import read_obj
+from mfi_drake.reference_path import Clearance, reference_path
+from mfi_drake.sensing import obstacle_distances
+from mfi_drake.vehicles import VEHICLES
+
+from .conftest import ROOT
+
+R = VEHICLES["drake_default"].collision_radius
+W = generator.DEFAULT_WORKSPACE
+
+
+# --- the generator ----------------------------------------------------------------
+@pytest.mark.parametrize("index", range(4))
+def test_start_and_goal_are_free_with_clearance(tmp_path, index):
+    field = generator.random_field(3, index, 0.3, str(tmp_path))
+    assert len(field.obstacles) == round(0.3 * 200.0) == 60
+    d_start, d_goal = obstacle_distances(field, [field.start, field.goal])
+    assert min(d_start, d_goal) >= R + W.clearance
+    # and obstacles do crowd the line: some come within 1.5 m of the start.
+    assert min(obstacle_distances(field, [[1.5, 0.0, W.height]])) < 1.0
+    sc.validate_scenario(field, field.name)
+
+
+def test_same_seed_same_field_other_index_other_field(tmp_path):
+    a = generator.random_field(7, 2, 0.1, str(tmp_path / "a"))
+    b = generator.random_field(7, 2, 0.1, str(tmp_path / "b"))
+    c = generator.random_field(7, 3, 0.1, str(tmp_path / "c"))
+    assert a.obstacles == b.obstacles  # same shapes, poses and mesh names
+    for o in a.obstacles:
+        if isinstance(o.shape, sc.Convex):
+            for x, y in zip(
+                read_obj(sc.mesh_path(a, o.shape)),
+                read_obj(sc.mesh_path(b, o.shape)),
+                strict=True,
+            ):
+                np.testing.assert_array_equal(x, y)
+    assert [o.position for o in a.obstacles] != [o.position for o in c.obstacles]
+    # A denser field of the same seed and index holds the sparser one.
+    denser = generator.random_field(7, 2, 0.2, str(tmp_path / "d"))
+    assert [o.position for o in denser.obstacles[:20]] == [
+        o.position for o in a.obstacles
+    ]
+
+
+def _is_convex(vertices: np.ndarray, triangles: np.ndarray) -> bool:
+    """Every vertex on the inner side of every face plane."""
+    centre = vertices.mean(axis=0)
+    for t in triangles:
+        a, b, c = vertices[t]
+        normal = np.cross(b - a, c - a)
+        if np.dot(normal, centre - a) > 0:
+            normal = -normal
+        if np.max((vertices - a) @ normal) > 1e-9 * np.linalg.norm(normal):
+            return False
+    return True
+
+
+def test_every_shape_kind_appears_randomly_oriented_and_meshes_are_convex(tmp_path):
+    fields = [generator.random_field(0, i, 0.1, str(tmp_path)) for i in range(3)]
+    obstacles = [o for f in fields for o in f.obstacles]
+    kinds = {type(o.shape).__name__.lower() for o in obstacles}
+    assert kinds == set(generator.SHAPE_KINDS)
+    tilted = [o for o in obstacles if not isinstance(o.shape, sc.Sphere)]
+    assert all(any(abs(a) > 1e-9 for a in o.rpy_deg) for o in tilted)
+    meshes = [o.shape for o in obstacles if isinstance(o.shape, sc.Convex)]
+    assert all(_is_convex(*read_obj(sc.mesh_path(fields[0], m))) for m in meshes)
+    low, high = W.box
+    for o in obstacles:
+        assert np.all(low <= o.position) and np.all(o.position <= high)
+
+
+def test_written_field_loads_back_equal(tmp_path):
+    field = generator.random_field(5, 1, 0.15, str(tmp_path / "gen"))
+    path = tmp_path / "out" / "field.yaml"
+    generator.write_scenario(field, str(path), header="# a comment\n")
+    loaded = sc.load_scenario(str(path))
+    assert not [f for f in os.listdir(path.parent) if f.startswith(".tmp")]
+    for f in dataclasses.fields(sc.Scenario):
+        if f.name not in ("obstacles", "base_dir", "simulator"):
+            assert getattr(loaded, f.name) == getattr(field, f.name), f.name
+    assert repr(loaded.simulator) == repr(field.simulator)
+    assert len(loaded.obstacles) == len(field.obstacles)
+    convex = 0
+    for mine, theirs in zip(field.obstacles, loaded.obstacles, strict=True):
+        assert (mine.position, mine.rpy_deg) == (theirs.position, theirs.rpy_deg)
+        if isinstance(mine.shape, sc.Convex):
+            convex += 1
+            # Copied next to the YAML, same vertices (OBJ keeps 6 decimals).
+            assert os.path.dirname(sc.mesh_path(loaded, theirs.shape)) == str(
+                path.parent
+            )
+            np.testing.assert_allclose(
+                read_obj(sc.mesh_path(loaded, theirs.shape))[0],
+                read_obj(sc.mesh_path(field, mine.shape))[0],
+                atol=1e-6,
+            )
+        else:
+            assert mine.shape == theirs.shape
+    assert convex > 0
+
+
+# --- the reference path -------------------------------------------------------------
+def _sphere_on_line(a: float):
+    """Sphere of radius a midway on a 10 m line: tangent, arc, tangent."""
+    field = sc.Scenario(
+        start=[0, 0, 2],
+        goal=[10, 0, 2],
+        obstacles=[sc.Obstacle(sc.Sphere(a), [5, 0, 2])],
+    )
+    rho, d = a + R, 5.0
+    exact = 2 * math.sqrt(d * d - rho * rho) + rho * (math.pi - 2 * math.acos(rho / d))
+    return field, exact
+
+
+def _wall_across_line(t: float, w: float):
+    """A tall wall t thick, w wide: round its grown vertical edge in the plane
+    z = 2 (two tangents, two arcs of radius R, the wall's thickness)."""
+    field = sc.Scenario(
+        start=[0, 0, 2],
+        goal=[10, 0, 2],
+        obstacles=[sc.Obstacle(sc.Box([t, w, 10.0]), [5, 0, 2])],
+    )
+    corner = math.hypot(5 - t / 2, w / 2)
+    turn = math.atan2(w / 2, 5 - t / 2) + math.asin(R / corner)
+    exact = 2 * (math.sqrt(corner**2 - R * R) + R * turn) + t
+    return field, exact
+
+
+@pytest.mark.parametrize(
+    "field, exact",
+    [_sphere_on_line(1.0), _sphere_on_line(0.4), _wall_across_line(0.2, 4.0)],
+    ids=["sphere_1m", "sphere_0.4m", "wall"],
+)
+def test_reference_path_matches_the_closed_form(field, exact):
+    ref = reference_path(field)
+    assert ref.length == pytest.approx(exact, rel=1e-3)
+    # Each step shortens the path; the grid alone is far off.
+    assert ref.grid_length > ref.shortcut_length >= ref.length
+    assert ref.grid_length > 1.05 * exact
+    clearance = Clearance(field, R)
+    for a, b in zip(ref.points[:-1], ref.points[1:], strict=True):
+        assert clearance.segment_free(a, b, 2e-3)
+    np.testing.assert_array_equal(ref.points[[0, -1]], [field.start, field.goal])
+
+
+def test_reference_path_is_straight_without_obstacles_in_the_way():
+    field = sc.Scenario(
+        start=[0, 0, 2],
+        goal=[10, 0, 2],
+        obstacles=[sc.Obstacle(sc.Sphere(0.5), [5, 3, 2])],
+    )
+    assert reference_path(field).length == pytest.approx(10.0, abs=1e-9)
+
+
+# --- statistics ---------------------------------------------------------------------
+def test_wilson_interval_matches_hand_computed_values():
+    # k = 0: upper end z²/(n + z²); k = n/2: symmetric about 1/2.
+    assert sweep.wilson_interval(0, 30) == pytest.approx([0.0, 0.113513], abs=1e-6)
+    assert sweep.wilson_interval(30, 30) == pytest.approx([0.886487, 1.0], abs=1e-6)
+    assert sweep.wilson_interval(15, 30) == pytest.approx(
+        [0.331541, 0.668459], abs=1e-6
+    )
+    assert sweep.wilson_interval(0, 0) is None
+
+
+def test_median_interval_uses_ranks_40_and_61_of_100():
+    values = np.arange(1.0, 101.0)[::-1]  # unsorted on purpose
+    assert sweep.median_interval(values) == [40.0, 61.0]
+    assert sweep.median_interval([]) is None
+
+
+# --- running sweeps -----------------------------------------------------------------
+def _short(scenario: sc.Scenario) -> sc.Scenario:
+    """A 1.5 s flight: cheap, and a timeout (the goal is 10 m away)."""
+    return dataclasses.replace(scenario, duration=1.5)
+
+
+@pytest.fixture(scope="module")
+def threads_client():
+    with distributed.Client(
+        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
+    ) as client:
+        yield client
+
+
+def test_rerun_after_a_kill_flies_only_the_rest(tmp_path, threads_client):
+    config = sweep.SweepConfig(n=2, seed=4, methods=["mfi", "apf"], out=str(tmp_path))
+    first = sweep.run_sweep(
+        config, threads_client, modify=_short, progress_stream=sys.stdout
+    )
+    assert (first.ran, first.skipped, first.lost) == (4, 0, [])
+    results = tmp_path / "results.jsonl"
+    lines = results.read_text().splitlines(keepends=True)
+    assert len(lines) == 4
+    # A kill after two flights, in the middle of writing the third line.
+    results.write_text("".join(lines[:2]) + lines[2][:40])
+    again = sweep.run_sweep(
+        config, threads_client, modify=_short, progress_stream=sys.stdout
+    )
+    assert (again.ran, again.skipped) == (2, 2)
+    now = results.read_text().splitlines(keepends=True)
+    assert now[:2] == lines[:2]
+    assert len(now) == 4 and all(line.endswith("\n") for line in now)
+    # The flights flown again give the same outcomes (deterministic simulation).
+    strip = ("wall_time",)
+    redo = sorted(
+        json.dumps({k: v for k, v in json.loads(x).items() if k not in strip})
+        for x in now[2:]
+    )
+    orig = sorted(
+        json.dumps({k: v for k, v in json.loads(x).items() if k not in strip})
+        for x in lines[2:]
+    )
+    assert redo == orig
+    # A third run has nothing left to do.
+    third = sweep.run_sweep(
+        config, threads_client, modify=_short, progress_stream=sys.stdout
+    )
+    assert (third.ran, third.skipped) == (0, 4)
+    # Every flight timed out; each is saved as a replayable scenario.
+    assert third.summary["methods"]["mfi"]["timeout_rate"] == 1.0
+    failures = sorted(os.listdir(tmp_path / "failures"))
+    yamls = [f for f in failures if f.endswith(".yaml")]
+    assert len(yamls) == 4
+    replay = sc.load_scenario(str(tmp_path / "failures" / yamls[0]))
+    assert replay.duration == 1.5
+    assert "--method" in (tmp_path / "failures" / yamls[0]).read_text().splitlines()[1]
+
+
+def test_two_worker_sweep_records_every_flight(tmp_path):
+    config = sweep.SweepConfig(
+        n=2, seed=9, methods=["mfi", "gf"], densities=[0.05, 0.1], out=str(tmp_path)
+    )
+    with sweep.dask_client(2, None) as client:
+        pids = set(client.run(os.getpid).values())
+        run = sweep.run_sweep(config, client, modify=_short, progress_stream=sys.stdout)
+    assert len(pids) == 2 and os.getpid() not in pids
+    assert (run.ran, run.lost) == (8, [])
+    records = sweep.read_results(str(tmp_path / "results.jsonl"))
+    assert sorted(sweep.record_key(r) for r in records) == sorted(config.flight_keys())
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary == json.loads(json.dumps(run.summary))
+    for method in config.methods:
+        for stats in summary["methods"][method]["by_density"].values():
+            rates = [stats[f"{o}_rate"] for o in sweep.OUTCOMES]
+            assert stats["n"] == 2 and sum(rates) == pytest.approx(1.0)
+    assert (tmp_path / "sweep.png").read_bytes().startswith(b"\x89PNG")
+    assert "| mfi | 0.05 | 2 |" in (tmp_path / "table.md").read_text()
+
+
+# --- the command line ---------------------------------------------------------------
+def test_sweep_without_dask_is_one_line_with_the_install_command(
+    tmp_path, monkeypatch, capsys
+):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import fails
+    assert main(["sweep", "--n", "1", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "pip install" in err
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--n", "0"], "--n"),
+        (["--density", "-0.1"], "--density"),
+        (["--methods", "mfi,xyz"], "--methods"),
+        (["--seed", "-1"], "--seed"),
+    ],
+)
+def test_sweep_rejects_bad_arguments(tmp_path, capsys, args, named):
+    assert main(["sweep", "--out", str(tmp_path), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and named in err
+    assert not os.path.exists(tmp_path / "results.jsonl")
+
+
+def test_obstacle_count_benchmark_flies_the_same_path_in_every_world(capsys):
+    path = os.path.join(ROOT, "benchmarks", "obstacle_count.py")
+    spec = importlib.util.spec_from_file_location("obstacle_count", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    results = module.main(["--counts", "10", "40", "--repeats", "1", "--duration", "2"])
+    assert "same trajectory in every world: yes" in capsys.readouterr().out
+    assert results[10]["steps"] == results[40]["steps"] > 0
