@@ -28,6 +28,9 @@ E_Z = np.array([0.0, 0.0, 1.0])
 
 
 def _zero3(like) -> np.ndarray:
+    """A zero 3-vector of like's scalar type (AutoDiffXd zeros for AutoDiffXd)."""
+    if isinstance(like, np.ndarray) and like.dtype == np.float64:
+        return np.zeros(3)
     return np.array([0.0 * like[0]] * 3)
 
 
@@ -89,7 +92,7 @@ def boundary_following_field(
     """
     if r >= r_l:
         return _zero3(l_a)
-    return c * cross(l_a, cross(l_o, l_a)) * (speed / r)
+    return cross(l_a, cross(l_o, l_a)) * (c * speed / r)
 
 
 def collision_avoidance_field(
@@ -103,7 +106,7 @@ def collision_avoidance_field(
     if r >= r_b:
         return _zero3(l_a)
     f_a = c_perp * (1.0 / r - 1.0 / r_b) / (r * r)
-    return cross(l_a, cross(n, -l_o)) * f_a
+    return cross(l_a, cross(l_o, n)) * f_a  # n × l_o⊥ = n × (−l_o) = l_o × n
 
 
 def obstacle_field(
@@ -121,12 +124,15 @@ def obstacle_field(
     r = |r_o| − collision_radius is floored at params.min_distance.
     """
     zero = _zero3(v)
-    distance = norm(r_o)
-    speed, l_a = heading(v)
-    if seen <= 0.5 or speed < TINY or distance < TINY:
+    if seen <= 0.5:
         return zero, zero
+    distance = norm(r_o)
     r = distance - collision_radius
-    if r >= params.r_l:  # beyond both ranges (r_b < r_l): nothing to do
+    # Beyond r_l the obstacle is beyond both ranges (r_b < r_l).
+    if distance < TINY or r >= params.r_l:
+        return zero, zero
+    speed, l_a = heading(v)
+    if speed < TINY:
         return zero, zero
     if r < params.min_distance:
         r = params.min_distance + 0.0 * r

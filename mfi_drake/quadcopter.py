@@ -9,6 +9,7 @@ thrust toward +x, +roll toward −y.
 import numpy as np
 
 from mfi_drake.parameters import NavigatorParams
+from mfi_drake.so3 import cos, entries, sin, sqrt
 from mfi_drake.vehicles import GRAVITY, Vehicle
 
 
@@ -43,20 +44,21 @@ def attitude_setpoint(
     is used in eq 24 so the tilts stay bounded; the tilt vector
     (roll_d, pitch_d) is scaled down to norm max_tilt when longer.
     """
-    roll, pitch, yaw = attitude[0], attitude[1], attitude[2]
-    T = F_n[2] + vehicle.mass * GRAVITY
+    roll, pitch, yaw = entries(attitude)
+    F_x, F_y, F_z = entries(F_n)
+    T = F_z + vehicle.mass * GRAVITY
     if params.tilt_compensation:
-        T = T / (np.cos(roll) * np.cos(pitch))
+        T = T / (cos(roll) * cos(pitch))
     T_floor = params.min_thrust_fraction * vehicle.mass * GRAVITY
     T_tilt = T if T_floor < T else T_floor + 0.0 * T
-    f_x = params.K_Pv * F_n[0]
-    f_y = params.K_Pv * F_n[1]
-    c, s = np.cos(yaw), np.sin(yaw)
+    f_x = params.K_Pv * F_x
+    f_y = params.K_Pv * F_y
+    c, s = cos(yaw), sin(yaw)
     f_forward = c * f_x + s * f_y
     f_left = -s * f_x + c * f_y
     pitch_d = f_forward / T_tilt
     roll_d = -f_left / T_tilt
-    tilt = np.sqrt(pitch_d * pitch_d + roll_d * roll_d)
+    tilt = sqrt(pitch_d * pitch_d + roll_d * roll_d)
     if tilt > params.max_tilt:
         # Scale, not clip per axis: the planar force keeps its direction, so
         # terms ⟂ v stay ⟂ v (zero work) and F_v keeps braking.
@@ -100,9 +102,9 @@ def attitude_pd_torque(
     Drake's plant gives the Euler-angle rates θ̇ directly, so the paper's
     small-angle approximation θ̇ ≈ ω is not needed. The yaw error is wrapped.
     """
-    error = attitude - desired
-    error = np.array([error[0], error[1], wrap_angle(error[2])])
-    return -K_P * error - K_D * attitude_rates
+    e_roll, e_pitch, e_yaw = entries(attitude - desired)
+    error = np.array([e_roll, e_pitch, wrap_angle(e_yaw)])
+    return -(K_P * error + K_D * attitude_rates)
 
 
 def mixer_matrix(vehicle: Vehicle) -> np.ndarray:
@@ -130,21 +132,24 @@ def mix(thrust_torque: np.ndarray, D_inv: np.ndarray, u_max: float):
     3. yaw torque gets what room is left (scaled by s ∈ [0, 1]).
     Returns (u, number of rotors left at a limit when anything was given up).
     """
-    T, tau_x, tau_y, tau_z = thrust_torque
-    roll_pitch = D_inv[:, 1] * tau_x + D_inv[:, 2] * tau_y
-    yaw = D_inv[:, 3] * tau_z
+    # Per-rotor lists of Python scalars: cheaper than 4-element arrays.
+    T, tau_x, tau_y, tau_z = entries(thrust_torque)
+    D = D_inv.tolist()
+    roll_pitch = [row[1] * tau_x + row[2] * tau_y for row in D]
+    yaw = [row[3] * tau_z for row in D]
     limited = False
-    low, high = roll_pitch.min(), roll_pitch.max()
+    low, high = min(roll_pitch), max(roll_pitch)
     if high - low > u_max:
         scale = u_max / (high - low)
-        roll_pitch, low, high = roll_pitch * scale, low * scale, high * scale
+        roll_pitch = [x * scale for x in roll_pitch]
+        low, high = low * scale, high * scale
         limited = True
-    collective = D_inv[0, 0] * T  # every rotor carries a quarter of T
+    collective = D[0][0] * T  # every rotor carries a quarter of T
     if collective < -low:
         collective, limited = -low + 0.0 * collective, True
     elif collective > u_max - high:
         collective, limited = u_max - high + 0.0 * collective, True
-    u = collective + roll_pitch
+    u = [collective + x for x in roll_pitch]
     s = 1.0
     for u_i, y_i in zip(u, yaw, strict=True):
         if y_i > 0.0 and u_i + y_i > u_max:
@@ -154,7 +159,7 @@ def mix(thrust_torque: np.ndarray, D_inv: np.ndarray, u_max: float):
     if s < 1.0:
         limited = True
         s = max(s, 0.0)
-    u = u + s * yaw
+    u = np.array([u_i + s * y_i for u_i, y_i in zip(u, yaw, strict=True)])
     if not limited:
         return u, 0
     at_limit = sum(1 for u_i in u if u_i <= 1e-9 * u_max or u_i >= u_max * (1 - 1e-9))

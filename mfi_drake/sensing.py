@@ -202,7 +202,9 @@ class VehicleGeometry(LeafSystem):
 
     def _calc(self, context, output):
         x = self._state.Eval(context)
-        pose = RigidTransform(RollPitchYaw(x[3:6]), x[:3])
-        poses = output.get_mutable_value()
-        poses.clear()
-        poses.set_value(self.frame_id, pose)
+        # Three scalars and a RotationMatrix pick pydrake's overloads at once;
+        # a vector and a RollPitchYaw make it try (and reject) several first.
+        rotation = RollPitchYaw(x[3], x[4], x[5]).ToRotationMatrix()
+        output.get_mutable_value().set_value(
+            self.frame_id, RigidTransform(rotation, x[:3])
+        )

@@ -23,6 +23,8 @@ class Flight:
     times: np.ndarray
     log: dict[str, np.ndarray]  # name -> (N, size) array, see diagram.LOG_LAYOUT
     wall_time: float
+    integrator_steps: int = 0  # steps the integrator took
+    derivative_evaluations: int = 0  # its time-derivative evaluations
     frames_rendered: int | None = None  # depth-camera frames (None: no camera)
     metrics: dict = field(default_factory=dict)
 
@@ -57,6 +59,7 @@ def fly(flight: FlightDiagram) -> Flight:
     simulator.Initialize()
     simulator.AdvanceTo(scenario.duration)
     wall_time = time.perf_counter() - start
+    integrator = simulator.get_integrator()
     depth = isinstance(scenario.sensor, DepthCamera)
     sensor = flight.diagram.GetSubsystemByName("sensor")
     frames = (
@@ -72,6 +75,8 @@ def fly(flight: FlightDiagram) -> Flight:
         times=log.sample_times().copy(),
         log={name: data[:, s] for name, s in flight.log_slices().items()},
         wall_time=wall_time,
+        integrator_steps=integrator.get_num_steps_taken(),
+        derivative_evaluations=integrator.get_num_derivative_evaluations(),
         frames_rendered=frames,
     )
     result.metrics = flight_metrics(result)

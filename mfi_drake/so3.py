@@ -6,31 +6,54 @@ simulation and linearisation (issue 5). Branches compare values, which
 AutoDiffXd supports; they are documented where they exist.
 """
 
+import math
+
 import numpy as np
 
 # Below this norm a direction is treated as undefined.
 TINY = 1e-9
 
 
+def _scalar_function(for_float, for_other):
+    """A function of one scalar: `for_float` (math's, far cheaper than a
+    numpy ufunc on one number) for floats, `for_other` (numpy's, which
+    dispatches to AutoDiffXd's and Expression's own) otherwise."""
+    return lambda x: for_float(x) if isinstance(x, float) else for_other(x)
+
+
+sqrt = _scalar_function(math.sqrt, np.sqrt)
+arccos = _scalar_function(math.acos, np.arccos)
+sin = _scalar_function(math.sin, np.sin)
+cos = _scalar_function(math.cos, np.cos)
+
+
+def entries(a) -> list:
+    """The entries of a small vector as a list of Python scalars.
+
+    Arithmetic on Python floats is several times cheaper than on numpy
+    scalars, and the simulation evaluates these functions thousands of
+    times; AutoDiffXd and Expression entries pass through unchanged.
+    """
+    return a.tolist() if isinstance(a, np.ndarray) else list(a)
+
+
 def dot(a: np.ndarray, b: np.ndarray):
-    """a·b for 3-vectors (faster than np.dot on tiny object arrays)."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    """a·b for 3-vectors (faster than np.dot on tiny or object arrays)."""
+    a0, a1, a2 = entries(a)
+    b0, b1, b2 = entries(b)
+    return a0 * b0 + a1 * b1 + a2 * b2
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b for 3-vectors."""
-    return np.array(
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    )
+    a0, a1, a2 = entries(a)
+    b0, b1, b2 = entries(b)
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 def norm(a: np.ndarray):
-    """Euclidean norm of a 3-vector (np.sqrt dispatches to AutoDiffXd.sqrt)."""
-    return np.sqrt(dot(a, a))
+    """Euclidean norm of a 3-vector."""
+    return sqrt(dot(a, a))
 
 
 def hat(w: np.ndarray) -> np.ndarray:
@@ -52,13 +75,21 @@ def rotation_from_reference(r_ref: np.ndarray, u: np.ndarray) -> np.ndarray:
     Singular at u = −r_ref (1 + cos φ = 0); callers pick r_ref away from u
     (see `reference_axis`).
     """
-    w = cross(r_ref, u)
-    c = dot(r_ref, u)
-    R = hat(w) + np.outer(w, w / (1.0 + c))
-    R[0, 0] += c
-    R[1, 1] += c
-    R[2, 2] += c
-    return R
+    # w = r_ref × u and c = cos φ = r_ref·u, on the entries.
+    r0, r1, r2 = entries(r_ref)
+    u0, u1, u2 = entries(u)
+    w0, w1, w2 = r1 * u2 - r2 * u1, r2 * u0 - r0 * u2, r0 * u1 - r1 * u0
+    c = r0 * u0 + r1 * u1 + r2 * u2
+    k = 1.0 / (1.0 + c)
+    k0, k1, k2 = k * w0, k * w1, k * w2
+    # Entry by entry: cos φ δ_ij + hat(w)_ij + w_i w_j / (1 + cos φ).
+    return np.array(
+        [
+            [c + k0 * w0, k0 * w1 - w2, k0 * w2 + w1],
+            [k1 * w0 + w2, c + k1 * w1, k1 * w2 - w0],
+            [k2 * w0 - w1, k2 * w1 + w0, c + k2 * w2],
+        ]
+    )
 
 
 # Fallback reference vectors r_ref for eq 16, in order of preference, used
@@ -115,23 +146,30 @@ def so3_log(R: np.ndarray) -> np.ndarray:
       (R + Rᵀ)/2 = cos β I + (1 − cos β) a aᵀ, its sign chosen to agree with
       vee(R − Rᵀ) (or, exactly at π, to make a's largest entry positive).
     """
-    c = (R[0, 0] + R[1, 1] + R[2, 2] - 1.0) / 2.0
+    # Entry by entry, on Python scalars (cheaper than small-array operations).
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R.tolist()
+    c = (r00 + r11 + r22 - 1.0) / 2.0
     if c > 1.0:
         c = 1.0 + 0.0 * c
     elif c < -1.0:
         c = -1.0 + 0.0 * c
-    A = (R - R.T) / 2.0  # = sin β · hat(a)
+    # s = vee(R − Rᵀ) / 2 = sin β · a.
+    s0 = (r21 - r12) / 2.0
+    s1 = (r02 - r20) / 2.0
+    s2 = (r10 - r01) / 2.0
     if c > 1.0 - 1e-6:
-        return (1.0 + (1.0 - c) / 3.0) * A
-    beta = np.arccos(c)
+        k = 1.0 + (1.0 - c) / 3.0  # β / sin β
+        return hat([k * s0, k * s1, k * s2])
+    beta = arccos(c)
     if c > -0.99:
-        return (beta / np.sin(beta)) * A
+        k = beta / sin(beta)
+        return hat([k * s0, k * s1, k * s2])
     # Near π: a aᵀ = (S − c I) / (1 − c).
     S = (R + R.T) / 2.0
     B = (S - c * np.eye(3)) / (1.0 - c)
     j = int(np.argmax([float(_value(B[i, i])) for i in range(3)]))
     a = B[:, j] / np.sqrt(B[j, j])
-    s = vee(A)
+    s = [s0, s1, s2]
     if (
         float(_value(dot(a, s))) < 0.0
         or float(_value(dot(s, s))) == 0.0

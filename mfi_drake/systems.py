@@ -33,15 +33,17 @@ STATE_SIZE = 12  # QuadrotorPlant's state
 
 
 def _position_velocity(x):
-    return np.asarray(x[0:3]), np.asarray(x[6:9])
+    return x[0:3], x[6:9]
 
 
-def _shared_vector(system, description, size, calc, tickets):
-    """A cache entry holding a numpy vector computed once for several outputs."""
+def _shared_terms(system, description, calc, tickets):
+    """A cache entry holding the tuple of force terms calc(context) returns,
+    computed once for the outputs that need them (kept as a tuple: joining
+    the terms into one vector is left to the output that logs them)."""
     return system.DeclareCacheEntry(
         description=description,
         value_producer=ValueProducer(
-            allocate=AbstractValue.Make(np.zeros(size)).Clone,
+            allocate=AbstractValue.Make(()).Clone,
             calc=lambda context, value: value.set_value(calc(context)),
         ),
         prerequisites_of_calc=set(tickets),
@@ -70,8 +72,8 @@ def ObstacleNavigator_(T):
                 "obstacle", OBSTACLE_SIGNAL_SIZE
             )
             tickets = {self._state.ticket(), self._obstacle.ticket()}
-            self._terms = _shared_vector(
-                self, "obstacle force terms", 6, self._calc_terms, tickets
+            self._terms = _shared_terms(
+                self, "obstacle force terms", self._calc_terms, tickets
             )
             terms_ticket = {self._terms.ticket()}
             self.DeclareVectorOutputPort(
@@ -83,7 +85,9 @@ def ObstacleNavigator_(T):
             self.DeclareVectorOutputPort(
                 "obstacle_force_terms",
                 6,
-                lambda context, out: out.SetFromVector(self._terms.Eval(context)),
+                lambda context, out: out.SetFromVector(
+                    np.concatenate(self._terms.Eval(context))
+                ),
                 prerequisites_of_calc=terms_ticket,
             )
 
@@ -108,11 +112,11 @@ def ObstacleNavigator_(T):
                 self.collision_radius,
                 self.params,
             )
-            return np.concatenate([A, B])
+            return A, B
 
         def _calc_force(self, context, output):
-            terms = self._terms.Eval(context)
-            output.SetFromVector(terms[:3] + terms[3:])
+            A, B = self._terms.Eval(context)
+            output.SetFromVector(A + B)
 
     return Impl
 
@@ -171,8 +175,8 @@ def GoalAttractionSelector_(T):
                         to_pd,
                     ),
                 }
-            self._terms = _shared_vector(
-                self, "F_gc, F_v, F_pd", 9, self._calc_terms, tickets
+            self._terms = _shared_terms(
+                self, "F_gc, F_v, F_pd", self._calc_terms, tickets
             )
             self.DeclareVectorOutputPort(
                 "navigation_force",
@@ -186,7 +190,9 @@ def GoalAttractionSelector_(T):
             self.DeclareVectorOutputPort(
                 "goal_force_terms",
                 9,
-                lambda context, out: out.SetFromVector(self._terms.Eval(context)),
+                lambda context, out: out.SetFromVector(
+                    np.concatenate(self._terms.Eval(context))
+                ),
                 prerequisites_of_calc={self._terms.ticket()},
             )
             self.DeclareVectorOutputPort(
@@ -243,15 +249,12 @@ def GoalAttractionSelector_(T):
 
         def _calc_terms(self, context):
             p, v = _position_velocity(self._state.Eval(context))
-            F_gc, F_v, F_pd = fields.goal_terms(
-                self.mode(context), p, v, self.goal, self.params
-            )
-            return np.concatenate([F_gc, F_v, F_pd])
+            return fields.goal_terms(self.mode(context), p, v, self.goal, self.params)
 
         def _calc_force(self, context, output):
-            terms = self._terms.Eval(context)
+            F_gc, F_v, F_pd = self._terms.Eval(context)
             F_o = self._obstacle_force.Eval(context)
-            output.SetFromVector(F_o + terms[0:3] + terms[3:6] + terms[6:9])
+            output.SetFromVector(F_o + F_gc + F_v + F_pd)
 
     return Impl
 
@@ -288,7 +291,9 @@ def AttitudePD_(T):
             self.DeclareVectorOutputPort(
                 "attitude_setpoint",
                 4,
-                lambda context, out: out.SetFromVector(self._setpoint(context)),
+                lambda context, out: out.SetFromVector(
+                    self._setpoint(context, self._state.Eval(context))
+                ),
                 prerequisites_of_calc=tickets,
             )
 
@@ -302,15 +307,14 @@ def AttitudePD_(T):
                 converter=converter,
             )
 
-        def _setpoint(self, context):
-            x = self._state.Eval(context)
+        def _setpoint(self, context, x):
             F_n = self._force.Eval(context)
             yaw_d = desired_yaw(x[6:9], x[5], self.params)
             return attitude_setpoint(F_n, x[3:6], yaw_d, self.vehicle, self.params)
 
         def _calc_thrust_torque(self, context, output):
             x = self._state.Eval(context)
-            setpoint = self._setpoint(context)
+            setpoint = self._setpoint(context, x)
             tau = attitude_pd_torque(x[3:6], x[9:12], setpoint[1:4], self.K_P, self.K_D)
             output.SetFromVector(np.concatenate([setpoint[:1], tau]))
 
