@@ -170,9 +170,21 @@ def cmd_sweep(args) -> int:
         sensor=args.sensor,
         out=args.out,
     )
+    modify = None
+    if args.faults is not None:
+        from functools import partial
+
+        from mfi_drake.faults import fault_variant, faults_from_yaml, with_faults
+
+        try:
+            faults = faults_from_yaml(args.faults)
+        except ValueError as e:
+            raise UsageError(f"--faults = {args.faults!r}: {e}") from None
+        config.variant = fault_variant(faults)
+        modify = partial(with_faults, faults=faults)
     try:
         with dask_client(args.workers, args.scheduler) as client:
-            run = run_sweep(config, client)
+            run = run_sweep(config, client, modify)
     except KeyboardInterrupt:
         print(
             f"mfi-drake: interrupted; finished flights are in {args.out}/results.jsonl,"
@@ -272,6 +284,12 @@ def make_parser() -> argparse.ArgumentParser:
     )
     sweep.add_argument(
         "--scheduler", help="address of a running Dask scheduler (tcp://host:8786)"
+    )
+    sweep.add_argument(
+        "--faults",
+        help="a scenario `faults:` block flown on every field, as YAML, e.g. "
+        "'{sensor_noise_std: 0.05, dropout_prob: 0.1}' (each field's seed is "
+        "offset by its name); results are keyed by it, so several can share --out",
     )
     sweep.add_argument("--out", default="out/sweep", help="output directory")
     sweep.add_argument("--json", action="store_true", help="print one JSON object")

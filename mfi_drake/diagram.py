@@ -6,7 +6,8 @@
     VehicleGeometry ◀── QuadrotorPlant ◀── RotorMixer ◀── AttitudePD ◀┘
 
 Every signal worth reading afterwards goes through one Multiplexer into a
-VectorLogSink that records at every integrator step.
+VectorLogSink that records at every integrator step. The scenario's faults
+(`faults`) are inserted only when turned on; the log keeps the true state.
 """
 
 from dataclasses import dataclass
@@ -23,6 +24,12 @@ from mfi_drake.baseline_systems import (
     PotentialGoalAttraction,
 )
 from mfi_drake.camera import add_depth_camera
+from mfi_drake.faults import (
+    Faults,
+    add_rotor_faults,
+    add_sensor_faults,
+    add_state_estimate,
+)
 from mfi_drake.scenario import DepthCamera, Scenario, SphereSensor
 from mfi_drake.sensing import SphereSensor as SphereSensorSystem
 from mfi_drake.sensing import VehicleGeometry, register_obstacles
@@ -128,11 +135,14 @@ def connect_controller(
     selector,
     attitude,
     mixer,
+    faults: Faults | None = None,
 ) -> None:
     """Closes the loop: plant state → navigator (its "obstacle" input from
     `obstacle_port`, a sensor's or, in `analysis`, a constant source's) →
-    selector → attitude PD → mixer → plant."""
-    state = plant.get_output_port(0)
+    selector → attitude PD → mixer → plant, through the state-estimate error
+    and rotor faults of `faults` when they are on."""
+    faults = faults or Faults()
+    state = add_state_estimate(builder, faults, plant.get_output_port(0))
     builder.Connect(state, navigator.GetInputPort("state"))
     builder.Connect(obstacle_port, navigator.GetInputPort("obstacle"))
     builder.Connect(state, selector.GetInputPort("state"))
@@ -148,7 +158,13 @@ def connect_controller(
     builder.Connect(
         attitude.GetOutputPort("thrust_torque"), mixer.GetInputPort("thrust_torque")
     )
-    builder.Connect(mixer.GetOutputPort("propeller_force"), plant.get_input_port(0))
+    rotors = add_rotor_faults(
+        builder,
+        faults,
+        mixer.vehicle.hover_command,
+        mixer.GetOutputPort("propeller_force"),
+    )
+    builder.Connect(rotors, plant.get_input_port(0))
 
 
 def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
@@ -189,11 +205,12 @@ def build_diagram(scenario: Scenario, method: str = "mfi") -> FlightDiagram:
     connect_controller(
         builder,
         plant,
-        sensor.GetOutputPort("obstacle"),
+        add_sensor_faults(builder, scenario.faults, sensor.GetOutputPort("obstacle")),
         navigator,
         selector,
         attitude,
         mixer,
+        scenario.faults,
     )
 
     mux = builder.AddNamedSystem(

@@ -20,6 +20,7 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import SimulatorConfig
 
 from mfi_drake.baselines import ApfParams, GfParams, baseline_problems
+from mfi_drake.faults import Faults, fault_problems
 from mfi_drake.parameters import NavigatorParams, field_problems, validate_params
 from mfi_drake.vehicles import VEHICLES
 
@@ -122,6 +123,7 @@ class Scenario:
     navigator: NavigatorParams = field(default_factory=NavigatorParams)
     apf: ApfParams = field(default_factory=ApfParams)  # the APF baseline's gains
     gf: GfParams = field(default_factory=GfParams)  # the GF baseline's gains
+    faults: Faults = field(default_factory=Faults)  # all off by default
     simulator: SimulatorConfig = field(default_factory=default_simulator_config)
     goal_tolerance: float = 0.1  # m, "reached" radius
     # Directory that relative mesh paths are resolved against (not in YAML).
@@ -129,6 +131,8 @@ class Scenario:
 
 
 def _fail(where: str, name: str, value, reason: str):
+    if not name.isprintable():  # a YAML key may hold a line break
+        name = repr(name)
     raise ScenarioError(f"{where}: {name} = {value!r}: {reason}")
 
 
@@ -221,6 +225,8 @@ def validate_scenario(scenario: Scenario, where: str) -> None:
         params = getattr(scenario, key)
         for name, value, reason in field_problems(params) or baseline_problems(params):
             _fail(where, f"{key}.{name}", value, reason)
+    for name, value, reason in fault_problems(scenario.faults):
+        _fail(where, f"faults.{name}", value, reason)
     sim = scenario.simulator
     _check_positive(where, "simulator.accuracy", sim.accuracy)
     _check_positive(where, "simulator.max_step_size", sim.max_step_size)
@@ -314,7 +320,7 @@ def _check_value(value, hint, where: str, name: str) -> None:
         # Untagged is the first alternative, as Drake writes and reads it.
         first = next(iter(options))
         tag = value.get("_tag", first) if isinstance(value, dict) else None
-        if tag not in options:
+        if not isinstance(tag, str) or tag not in options:
             _fail(
                 where,
                 name,
@@ -333,7 +339,7 @@ def load_scenario(path: str) -> Scenario:
     try:
         with open(path) as f:
             raw = yaml.load(f, Loader=_TaggedLoader)
-    except (yaml.YAMLError, UnicodeDecodeError, OSError) as e:
+    except (yaml.YAMLError, UnicodeDecodeError, OSError, RecursionError) as e:
         message = " ".join(str(e).split())
         raise ScenarioError(f"{path}: not valid YAML: {message}") from None
     _check_schema(raw, Scenario, path, "")
