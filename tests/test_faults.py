@@ -1,9 +1,12 @@
 """The fault models (issue 7) against closed forms and statistics, their
 validation, their place in the diagram, and the faulted planar_wall flight."""
 
+import dataclasses
+import io
 import math
 import os
 
+import distributed
 import numpy as np
 import pytest
 from pydrake.autodiffutils import AutoDiffXd
@@ -11,6 +14,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Integrator, Multiplexer
 
+from mfi_drake.cli import main
 from mfi_drake.diagram import build_diagram
 from mfi_drake.faults import (
     Faults,
@@ -18,10 +22,14 @@ from mfi_drake.faults import (
     SensorFaults,
     StateEstimateError,
     corrupt_reading,
+    fault_variant,
+    faults_from_yaml,
     sample_rng,
+    with_faults,
 )
 from mfi_drake.scenario import Scenario, ScenarioError, load_scenario
 from mfi_drake.simulation import fly, simulate
+from mfi_drake.sweep import SweepConfig, read_results, run_sweep
 from mfi_drake.vehicles import VEHICLES
 
 from .conftest import SCENARIOS
@@ -242,3 +250,37 @@ def test_fault_systems_convert_to_autodiff_for_linearisation():
     estimate.get_input_port(0).FixValue(context, [AutoDiffXd(1.0, [1.0])] * 12)
     out = estimate.get_output_port(0).Eval(context)
     assert [x.derivatives()[0] for x in out] == [1.0] * 12
+
+
+def test_sweep_flies_every_field_with_the_faults_and_keys_the_records(tmp_path):
+    faults = faults_from_yaml("{sensor_noise_std: 0.05, motor_time_constant: 0.02}")
+    variant = fault_variant(faults)
+    assert variant == "sensor_noise_std=0.05,motor_time_constant=0.02"
+
+    def modify(scenario):  # 1.5 s flights: cheap, and timeouts (replayable)
+        return dataclasses.replace(with_faults(scenario, faults), duration=1.5)
+
+    config = SweepConfig(n=2, methods=["mfi"], out=str(tmp_path), variant=variant)
+    with distributed.Client(
+        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
+    ) as client:
+        run = run_sweep(config, client, modify, progress_stream=io.StringIO())
+    assert (run.ran, run.lost) == (2, [])
+    records = read_results(str(tmp_path / "results.jsonl"))
+    assert [r["variant"] for r in records] == [variant, variant]
+    failures = tmp_path / "failures"
+    names = [f for f in os.listdir(failures) if f.endswith(".yaml")]
+    replays = [load_scenario(str(failures / f)) for f in names]
+    assert len(replays) == 2
+    for replay in replays:
+        assert replay.faults.sensor_noise_std == 0.05
+        assert replay.faults.motor_time_constant == 0.02
+    assert len({r.faults.seed for r in replays}) == 2  # independent noise per field
+
+
+@pytest.mark.parametrize("text", ["{dropout_prob: 3}", "{noise: 1}", "[1]"])
+def test_sweep_rejects_bad_faults_in_one_line(tmp_path, capsys, text):
+    assert main(["sweep", "--n", "1", "--out", str(tmp_path), "--faults", text]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--faults" in err
+    assert not os.path.exists(tmp_path / "results.jsonl")
