@@ -182,7 +182,8 @@ def wilson_interval(k: int, n: int, z: float = Z_95) -> list[float] | None:
     p = k / n
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return [max(0.0, centre - half), min(1.0, centre + half)]
+    # min/max: at k = 0 or n rounding may put the end a hair inside p.
+    return [max(0.0, min(p, centre - half)), min(1.0, max(p, centre + half))]
 
 
 def median_interval(values, z: float = Z_95) -> list[float] | None:

@@ -179,6 +179,10 @@ def test_wilson_interval_matches_hand_computed_values():
         [0.331541, 0.668459], abs=1e-6
     )
     assert sweep.wilson_interval(0, 0) is None
+    for n in (1, 7, 30, 199, 200):  # always holds the observed rate
+        for k in range(n + 1):
+            lo, hi = sweep.wilson_interval(k, n)
+            assert 0.0 <= lo <= k / n <= hi <= 1.0
 
 
 def test_median_interval_uses_ranks_40_and_61_of_100():
