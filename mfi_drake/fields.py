@@ -19,8 +19,7 @@ from mfi_drake.so3 import (
     norm,
     reference_axis,
     rotation_from_reference,
-    so3_log,
-    vee,
+    rotation_vector,
 )
 
 E_X = np.array([1.0, 0.0, 0.0])
@@ -158,7 +157,7 @@ def goal_attraction_field(v: np.ndarray, r_g: np.ndarray, K_omega: float):
     r_ref = reference_axis(l_a, l_g)
     R_v = rotation_from_reference(r_ref, l_a)
     R_g = rotation_from_reference(r_ref, l_g)
-    omega_g = -K_omega * vee(so3_log(R_g.T @ R_v))
+    omega_g = -K_omega * rotation_vector(R_g.T @ R_v)  # ω̂_g = −K_ω log(R_gᵀ R_v)
     return cross(R_g @ omega_g, v)
 
 

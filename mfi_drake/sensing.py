@@ -41,6 +41,7 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.framework import LeafSystem
 
 from mfi_drake import scenario as sc
+from mfi_drake.last_result import LastResult
 from mfi_drake.meshes import obstacle_pose
 
 OBSTACLE_SIGNAL_SIZE = 4
@@ -128,6 +129,7 @@ class SphereSensor(LeafSystem):
     def __init__(self, radius: float):
         super().__init__()
         self._radius = radius
+        self._last = LastResult()
         self._query = self.DeclareAbstractInputPort(
             "query", SceneGraph().get_query_output_port().Allocate()
         )
@@ -145,7 +147,11 @@ class SphereSensor(LeafSystem):
     def _calc(self, context, output):
         p = self._state.Eval(context)[:3]
         query = self._query.Eval(context)
-        output.SetFromVector(closest_obstacle(query, p, self._radius))
+        # Keyed on p alone (the obstacles are anchored); the query object is
+        # not kept, it is only valid during this evaluation.
+        output.SetFromVector(
+            self._last(lambda p: closest_obstacle(query, p, self._radius), p)
+        )
 
 
 class VehicleGeometry(LeafSystem):

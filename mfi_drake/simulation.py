@@ -23,6 +23,7 @@ class Flight:
     times: np.ndarray
     log: dict[str, np.ndarray]  # name -> (N, size) array, see diagram.LOG_LAYOUT
     wall_time: float
+    cpu_time: float = 0.0  # process CPU time of the simulation [s]
     integrator_steps: int = 0  # steps the integrator took
     derivative_evaluations: int = 0  # its time-derivative evaluations
     frames_rendered: int | None = None  # depth-camera frames (None: no camera)
@@ -55,10 +56,11 @@ def fly(flight: FlightDiagram) -> Flight:
     if flight.selector.num_discrete_state_groups():  # eq 21's mode (MFI only)
         selector_context = flight.selector.GetMyMutableContextFromRoot(context)
         flight.selector.set_mode(selector_context, flight.selector.initial_mode(x0))
-    start = time.perf_counter()
+    start, start_cpu = time.perf_counter(), time.process_time()
     simulator.Initialize()
     simulator.AdvanceTo(scenario.duration)
     wall_time = time.perf_counter() - start
+    cpu_time = time.process_time() - start_cpu
     integrator = simulator.get_integrator()
     depth = isinstance(scenario.sensor, DepthCamera)
     sensor = flight.diagram.GetSubsystemByName("sensor")
@@ -75,6 +77,7 @@ def fly(flight: FlightDiagram) -> Flight:
         times=log.sample_times().copy(),
         log={name: data[:, s] for name, s in flight.log_slices().items()},
         wall_time=wall_time,
+        cpu_time=cpu_time,
         integrator_steps=integrator.get_num_steps_taken(),
         derivative_evaluations=integrator.get_num_derivative_evaluations(),
         frames_rendered=frames,

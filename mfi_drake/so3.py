@@ -137,7 +137,13 @@ def reference_axis(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray:
 
 
 def so3_log(R: np.ndarray) -> np.ndarray:
-    """The matrix logarithm of eq 17: log R = β / (2 sin β) (R − Rᵀ).
+    """The matrix logarithm of eq 17, log R = hat(rotation_vector(R))."""
+    return hat(rotation_vector(R))
+
+
+def rotation_vector(R: np.ndarray) -> np.ndarray:
+    """Eq 17's logarithm as a vector: vee(log R) = β a for R = exp(β hat(a)),
+    from log R = β / (2 sin β) (R − Rᵀ).
 
     β = arccos((tr R − 1) / 2). Two singular ends are handled:
     - β → 0: β / sin β is replaced by its series 1 + β²/6 with
@@ -159,11 +165,11 @@ def so3_log(R: np.ndarray) -> np.ndarray:
     s2 = (r10 - r01) / 2.0
     if c > 1.0 - 1e-6:
         k = 1.0 + (1.0 - c) / 3.0  # β / sin β
-        return hat([k * s0, k * s1, k * s2])
+        return np.array([k * s0, k * s1, k * s2])
     beta = arccos(c)
     if c > -0.99:
         k = beta / sin(beta)
-        return hat([k * s0, k * s1, k * s2])
+        return np.array([k * s0, k * s1, k * s2])
     # Near π: a aᵀ = (S − c I) / (1 − c).
     S = (R + R.T) / 2.0
     B = (S - c * np.eye(3)) / (1.0 - c)
@@ -176,7 +182,7 @@ def so3_log(R: np.ndarray) -> np.ndarray:
         and float(_value(a[j])) < 0.0
     ):
         a = -a
-    return beta * hat(a)
+    return beta * a
 
 
 def _value(x):

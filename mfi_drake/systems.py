@@ -4,7 +4,9 @@
 Each is templated on the scalar type with `TemplateSystem.define` (as
 Drake's Python examples do) so that a diagram holding them converts to
 AutoDiffXd for `Linearize`. Outputs declare narrow prerequisites so the
-builder need not convert to symbolic form to look for algebraic loops.
+builder need not convert to symbolic form to look for algebraic loops. The
+float systems keep their last result (`LastResult`), so the evaluation that
+repeats the logger's at the start of every integrator step is a lookup.
 """
 
 import numpy as np
@@ -18,6 +20,7 @@ from pydrake.systems.framework import (
 from pydrake.systems.scalar_conversion import TemplateSystem
 
 from mfi_drake import fields
+from mfi_drake.last_result import LastResult
 from mfi_drake.quadcopter import (
     attitude_gains,
     attitude_pd_torque,
@@ -67,6 +70,7 @@ def ObstacleNavigator_(T):
             self.params = params
             self.goal = np.asarray(goal, dtype=float)
             self.collision_radius = float(collision_radius)
+            self._last = LastResult(enabled=T is float)
             self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
             self._obstacle = self.DeclareVectorInputPort(
                 "obstacle", OBSTACLE_SIGNAL_SIZE
@@ -102,8 +106,11 @@ def ObstacleNavigator_(T):
             )
 
         def _calc_terms(self, context):
-            p, v = _position_velocity(self._state.Eval(context))
-            obstacle = self._obstacle.Eval(context)
+            x = self._state.Eval(context)
+            return self._last(self._terms_of, x, self._obstacle.Eval(context))
+
+        def _terms_of(self, x, obstacle):
+            p, v = _position_velocity(x)
             A, B = self.field(
                 v,
                 obstacle[:3],
@@ -151,6 +158,9 @@ def GoalAttractionSelector_(T):
             self.params = params
             self.goal = np.asarray(goal, dtype=float)
             self.fixed_mode = mode
+            self._last = LastResult(enabled=T is float)
+            # The simulator evaluates the active guard at both ends of a step.
+            self._last_guard = LastResult(enabled=T is float)
             self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
             self._obstacle_force = self.DeclareVectorInputPort("obstacle_force", 3)
             tickets = {self._state.ticket()}
@@ -229,10 +239,14 @@ def GoalAttractionSelector_(T):
 
         def _guard(self, guard):
             def calc(context):
-                p, v = _position_velocity(self._state.Eval(context))
-                return guard(p, v, self.goal, self.params)
+                x = self._state.Eval(context)
+                return self._last_guard(self._guard_value, guard, x)
 
             return calc
+
+        def _guard_value(self, guard, x):
+            p, v = _position_velocity(x)
+            return guard(p, v, self.goal, self.params)
 
         def _switch_to(self, mode):
             def update(context, event, state):
@@ -248,8 +262,12 @@ def GoalAttractionSelector_(T):
             return [self._witness[self.mode(context)]]
 
         def _calc_terms(self, context):
-            p, v = _position_velocity(self._state.Eval(context))
-            return fields.goal_terms(self.mode(context), p, v, self.goal, self.params)
+            x = self._state.Eval(context)
+            return self._last(self._goal_terms, self.mode(context), x)
+
+        def _goal_terms(self, mode, x):
+            p, v = _position_velocity(x)
+            return fields.goal_terms(mode, p, v, self.goal, self.params)
 
         def _calc_force(self, context, output):
             F_gc, F_v, F_pd = self._terms.Eval(context)
@@ -279,21 +297,20 @@ def AttitudePD_(T):
             default_P, default_D = attitude_gains(vehicle, params)
             self.K_P = default_P if K_P is None else np.asarray(K_P, float)
             self.K_D = default_D if K_D is None else np.asarray(K_D, float)
+            self._last = LastResult(enabled=T is float)
             self._force = self.DeclareVectorInputPort("navigation_force", 3)
             self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
             tickets = {self._force.ticket(), self._state.ticket()}
             self.DeclareVectorOutputPort(
                 "thrust_torque",
                 4,
-                self._calc_thrust_torque,
+                lambda context, out: out.SetFromVector(self._outputs(context)[0]),
                 prerequisites_of_calc=tickets,
             )
             self.DeclareVectorOutputPort(
                 "attitude_setpoint",
                 4,
-                lambda context, out: out.SetFromVector(
-                    self._setpoint(context, self._state.Eval(context))
-                ),
+                lambda context, out: out.SetFromVector(self._outputs(context)[1]),
                 prerequisites_of_calc=tickets,
             )
 
@@ -307,16 +324,16 @@ def AttitudePD_(T):
                 converter=converter,
             )
 
-        def _setpoint(self, context, x):
-            F_n = self._force.Eval(context)
-            yaw_d = desired_yaw(x[6:9], x[5], self.params)
-            return attitude_setpoint(F_n, x[3:6], yaw_d, self.vehicle, self.params)
-
-        def _calc_thrust_torque(self, context, output):
+        def _outputs(self, context):
+            """(thrust_torque, attitude_setpoint), computed once for both."""
             x = self._state.Eval(context)
-            setpoint = self._setpoint(context, x)
+            return self._last(self._outputs_of, x, self._force.Eval(context))
+
+        def _outputs_of(self, x, F_n):
+            yaw_d = desired_yaw(x[6:9], x[5], self.params)
+            setpoint = attitude_setpoint(F_n, x[3:6], yaw_d, self.vehicle, self.params)
             tau = attitude_pd_torque(x[3:6], x[9:12], setpoint[1:4], self.K_P, self.K_D)
-            output.SetFromVector(np.concatenate([setpoint[:1], tau]))
+            return np.concatenate([setpoint[:1], tau]), setpoint
 
     return Impl
 
@@ -337,6 +354,7 @@ def RotorMixer_(T):
             LeafSystem_[T].__init__(self, converter)
             self.vehicle = vehicle
             self._D_inv = np.linalg.inv(mixer_matrix(vehicle))
+            self._last = LastResult(enabled=T is float)
             self._input = self.DeclareVectorInputPort("thrust_torque", 4)
             tickets = {self._input.ticket()}
             self.DeclareVectorOutputPort(
@@ -356,7 +374,10 @@ def RotorMixer_(T):
             Impl._construct(self, other.vehicle, converter=converter)
 
         def _mix(self, context):
-            return mix(self._input.Eval(context), self._D_inv, self.vehicle.u_max)
+            return self._last(self._mix_of, self._input.Eval(context))
+
+        def _mix_of(self, thrust_torque):
+            return mix(thrust_torque, self._D_inv, self.vehicle.u_max)
 
     return Impl
 
