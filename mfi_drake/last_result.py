@@ -1,11 +1,9 @@
 """`LastResult`: the last result of a calculation, kept with its inputs."""
 
-import numpy as np
-
 
 class LastResult:
-    """Remembers the last result of a calculation that depends on nothing but
-    its inputs (numpy arrays or numbers, compared by value).
+    """Remembers the last result of a calculation with a key naming its
+    inputs' values (their bytes, for numpy arrays).
 
     Why: the logger evaluates the whole controller chain at the end of every
     integrator step; the integrator then starts the next step by taking the
@@ -20,13 +18,14 @@ class LastResult:
         self._enabled = enabled
         self._last = (None, None)  # (key, result), replaced as one
 
-    def __call__(self, calc, *inputs):
-        """calc(*inputs), computed again only when an input has changed."""
+    def __call__(self, key, calc, *args):
+        """calc(*args), computed again only when `key` differs from the last
+        call's. The key must determine the result: build it from every input
+        (e.g. x.tobytes() + y.tobytes(); fixed sizes keep it unambiguous)."""
         if not self._enabled:
-            return calc(*inputs)
-        key = [x.tobytes() if isinstance(x, np.ndarray) else x for x in inputs]
+            return calc(*args)
         last_key, result = self._last
         if key != last_key:
-            result = calc(*inputs)
+            result = calc(*args)
             self._last = (key, result)
         return result

@@ -150,7 +150,7 @@ class SphereSensor(LeafSystem):
         # Keyed on p alone (the obstacles are anchored); the query object is
         # not kept, it is only valid during this evaluation.
         output.SetFromVector(
-            self._last(lambda p: closest_obstacle(query, p, self._radius), p)
+            self._last(p.tobytes(), closest_obstacle, query, p, self._radius)
         )
 
 

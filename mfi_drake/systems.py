@@ -107,7 +107,9 @@ def ObstacleNavigator_(T):
 
         def _calc_terms(self, context):
             x = self._state.Eval(context)
-            return self._last(self._terms_of, x, self._obstacle.Eval(context))
+            obstacle = self._obstacle.Eval(context)
+            key = x.tobytes() + obstacle.tobytes()
+            return self._last(key, self._terms_of, x, obstacle)
 
         def _terms_of(self, x, obstacle):
             p, v = _position_velocity(x)
@@ -159,8 +161,6 @@ def GoalAttractionSelector_(T):
             self.goal = np.asarray(goal, dtype=float)
             self.fixed_mode = mode
             self._last = LastResult(enabled=T is float)
-            # The simulator evaluates the active guard at both ends of a step.
-            self._last_guard = LastResult(enabled=T is float)
             self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
             self._obstacle_force = self.DeclareVectorInputPort("obstacle_force", 3)
             tickets = {self._state.ticket()}
@@ -238,15 +238,18 @@ def GoalAttractionSelector_(T):
             return fields.MODE_PD
 
         def _guard(self, guard):
+            def value(x):
+                p, v = _position_velocity(x)
+                return guard(p, v, self.goal, self.params)
+
+            # The simulator evaluates the guard at both ends of every step.
+            last = LastResult(enabled=T is float)
+
             def calc(context):
                 x = self._state.Eval(context)
-                return self._last_guard(self._guard_value, guard, x)
+                return last(x.tobytes(), value, x)
 
             return calc
-
-        def _guard_value(self, guard, x):
-            p, v = _position_velocity(x)
-            return guard(p, v, self.goal, self.params)
 
         def _switch_to(self, mode):
             def update(context, event, state):
@@ -263,7 +266,8 @@ def GoalAttractionSelector_(T):
 
         def _calc_terms(self, context):
             x = self._state.Eval(context)
-            return self._last(self._goal_terms, self.mode(context), x)
+            mode = self.mode(context)
+            return self._last((mode, x.tobytes()), self._goal_terms, mode, x)
 
         def _goal_terms(self, mode, x):
             p, v = _position_velocity(x)
@@ -327,7 +331,8 @@ def AttitudePD_(T):
         def _outputs(self, context):
             """(thrust_torque, attitude_setpoint), computed once for both."""
             x = self._state.Eval(context)
-            return self._last(self._outputs_of, x, self._force.Eval(context))
+            F_n = self._force.Eval(context)
+            return self._last(x.tobytes() + F_n.tobytes(), self._outputs_of, x, F_n)
 
         def _outputs_of(self, x, F_n):
             yaw_d = desired_yaw(x[6:9], x[5], self.params)
@@ -374,7 +379,8 @@ def RotorMixer_(T):
             Impl._construct(self, other.vehicle, converter=converter)
 
         def _mix(self, context):
-            return self._last(self._mix_of, self._input.Eval(context))
+            thrust_torque = self._input.Eval(context)
+            return self._last(thrust_torque.tobytes(), self._mix_of, thrust_torque)
 
         def _mix_of(self, thrust_torque):
             return mix(thrust_torque, self._D_inv, self.vehicle.u_max)
