@@ -53,7 +53,8 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def norm(a: np.ndarray):
     """Euclidean norm of a 3-vector."""
-    return sqrt(dot(a, a))
+    a0, a1, a2 = entries(a)
+    return sqrt(a0 * a0 + a1 * a1 + a2 * a2)
 
 
 def hat(w: np.ndarray) -> np.ndarray:
