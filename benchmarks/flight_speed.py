@@ -1,6 +1,6 @@
 """How fast the planar wall flight runs, next to a C++-only reference.
 
-    python benchmarks/flight_speed.py [--repeats 3] [--duration SECONDS]
+    python benchmarks/flight_speed.py [--repeats 5] [--duration SECONDS]
 
 Prints, all measured in this one run:
 
@@ -140,7 +140,7 @@ def describe(run: Run) -> str:
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenario", default=PLANAR_WALL)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument(
         "--duration", type=float, help="override the scenario's duration [s]"
     )
