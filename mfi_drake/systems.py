@@ -6,15 +6,15 @@ Drake's Python examples do) so that a diagram holding them converts to
 AutoDiffXd for `Linearize`. Outputs declare narrow prerequisites so the
 builder need not convert to symbolic form to look for algebraic loops. The
 float systems keep their last result (`LastResult`), so the evaluation that
-repeats the logger's at the start of every integrator step is a lookup.
+repeats the logger's at the start of every integrator step is a lookup; the
+outputs that share a computation read it from there too (a cache entry of
+its own would add a Python callback to every evaluation).
 """
 
 import numpy as np
-from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import (
     LeafSystem_,
     UnrestrictedUpdateEvent_,
-    ValueProducer,
     WitnessFunctionDirection,
 )
 from pydrake.systems.scalar_conversion import TemplateSystem
@@ -37,20 +37,6 @@ STATE_SIZE = 12  # QuadrotorPlant's state
 
 def _position_velocity(x):
     return x[0:3], x[6:9]
-
-
-def _shared_terms(system, description, calc, tickets):
-    """A cache entry holding the tuple of force terms calc(context) returns,
-    computed once for the outputs that need them (kept as a tuple: joining
-    the terms into one vector is left to the output that logs them)."""
-    return system.DeclareCacheEntry(
-        description=description,
-        value_producer=ValueProducer(
-            allocate=AbstractValue.Make(()).Clone,
-            calc=lambda context, value: value.set_value(calc(context)),
-        ),
-        prerequisites_of_calc=set(tickets),
-    )
 
 
 @TemplateSystem.define("ObstacleNavigator_")
@@ -76,23 +62,19 @@ def ObstacleNavigator_(T):
                 "obstacle", OBSTACLE_SIGNAL_SIZE
             )
             tickets = {self._state.ticket(), self._obstacle.ticket()}
-            self._terms = _shared_terms(
-                self, "obstacle force terms", self._calc_terms, tickets
-            )
-            terms_ticket = {self._terms.ticket()}
             self.DeclareVectorOutputPort(
                 "obstacle_force",
                 3,
-                self._calc_force,
-                prerequisites_of_calc=terms_ticket,
+                lambda context, out: out.SetFromVector(self._terms(context)[2]),
+                prerequisites_of_calc=tickets,
             )
             self.DeclareVectorOutputPort(
                 "obstacle_force_terms",
                 6,
                 lambda context, out: out.SetFromVector(
-                    np.concatenate(self._terms.Eval(context))
+                    np.concatenate(self._terms(context)[:2])
                 ),
-                prerequisites_of_calc=terms_ticket,
+                prerequisites_of_calc=tickets,
             )
 
         def _construct_copy(self, other, converter=None):
@@ -105,7 +87,8 @@ def ObstacleNavigator_(T):
                 converter=converter,
             )
 
-        def _calc_terms(self, context):
+        def _terms(self, context):
+            """(A, B, F_o), computed once for both outputs."""
             x = self._state.Eval(context)
             obstacle = self._obstacle.Eval(context)
             key = x.tobytes() + obstacle.tobytes()
@@ -121,11 +104,7 @@ def ObstacleNavigator_(T):
                 self.collision_radius,
                 self.params,
             )
-            return A, B
-
-        def _calc_force(self, context, output):
-            A, B = self._terms.Eval(context)
-            output.SetFromVector(A + B)
+            return A, B, A + B
 
     return Impl
 
@@ -185,25 +164,19 @@ def GoalAttractionSelector_(T):
                         to_pd,
                     ),
                 }
-            self._terms = _shared_terms(
-                self, "F_gc, F_v, F_pd", self._calc_terms, tickets
-            )
             self.DeclareVectorOutputPort(
                 "navigation_force",
                 3,
                 self._calc_force,
-                prerequisites_of_calc={
-                    self._terms.ticket(),
-                    self._obstacle_force.ticket(),
-                },
+                prerequisites_of_calc=tickets | {self._obstacle_force.ticket()},
             )
             self.DeclareVectorOutputPort(
                 "goal_force_terms",
                 9,
                 lambda context, out: out.SetFromVector(
-                    np.concatenate(self._terms.Eval(context))
+                    np.concatenate(self._terms(context))
                 ),
-                prerequisites_of_calc={self._terms.ticket()},
+                prerequisites_of_calc=tickets,
             )
             self.DeclareVectorOutputPort(
                 "mode",
@@ -221,10 +194,10 @@ def GoalAttractionSelector_(T):
         def mode(self, context) -> int:
             if self.fixed_mode is not None:
                 return self.fixed_mode
-            value = context.get_discrete_state(self._mode_index).GetAtIndex(0)
-            return int(
-                round(float(value.value() if hasattr(value, "value") else value))
-            )
+            # The only discrete state group: get_discrete_state_vector() is
+            # cheaper than get_discrete_state(index).
+            value = context.get_discrete_state_vector().GetAtIndex(0)
+            return round(value if isinstance(value, float) else value.value())
 
         def set_mode(self, context, mode: int) -> None:
             """Sets the mode state (e.g. the initial mode from the initial state)."""
@@ -264,7 +237,8 @@ def GoalAttractionSelector_(T):
                 return []
             return [self._witness[self.mode(context)]]
 
-        def _calc_terms(self, context):
+        def _terms(self, context):
+            """(F_gc, F_v, F_pd), computed once for both outputs."""
             x = self._state.Eval(context)
             mode = self.mode(context)
             return self._last((mode, x.tobytes()), self._goal_terms, mode, x)
@@ -274,7 +248,7 @@ def GoalAttractionSelector_(T):
             return fields.goal_terms(mode, p, v, self.goal, self.params)
 
         def _calc_force(self, context, output):
-            F_gc, F_v, F_pd = self._terms.Eval(context)
+            F_gc, F_v, F_pd = self._terms(context)
             F_o = self._obstacle_force.Eval(context)
             output.SetFromVector(F_o + F_gc + F_v + F_pd)
 
