@@ -99,10 +99,10 @@ def closest_obstacle(query_object, p: np.ndarray, threshold: float) -> np.ndarra
     if not results:
         return np.zeros(OBSTACLE_SIGNAL_SIZE)
     best = min(results, key=lambda r: r.distance)
-    out = np.empty(OBSTACLE_SIGNAL_SIZE)
-    out[:3] = -best.distance * best.grad_W
-    out[3] = 1.0
-    return out
+    # On Python floats: one array built instead of three numpy operations.
+    d = best.distance
+    g0, g1, g2 = best.grad_W.tolist()
+    return np.array([-d * g0, -d * g1, -d * g2, 1.0])
 
 
 def obstacle_distances(scenario: sc.Scenario, points) -> list[float]:
@@ -146,12 +146,12 @@ class SphereSensor(LeafSystem):
 
     def _calc(self, context, output):
         p = self._state.Eval(context)[:3]
-        query = self._query.Eval(context)
         # Keyed on p alone (the obstacles are anchored); the query object is
-        # not kept, it is only valid during this evaluation.
-        output.SetFromVector(
-            self._last(p.tobytes(), closest_obstacle, query, p, self._radius)
-        )
+        # evaluated only when p is new: it is valid only during this call.
+        output.SetFromVector(self._last(p.tobytes(), self._closest, context, p))
+
+    def _closest(self, context, p):
+        return closest_obstacle(self._query.Eval(context), p, self._radius)
 
 
 class VehicleGeometry(LeafSystem):
