@@ -402,10 +402,10 @@ def recomputed_zero_work_terms(flight: Flight, vehicle: Vehicle) -> dict:
     F, F_a, F_gc = (np.zeros((len(x), 3)) for _ in range(3))
     for i in range(len(x)):
         p, v = x[i, 0:3], x[i, 6:9]
-        F[i], F_a[i] = fields.obstacle_field(
+        F[i], F_a[i] = fields.superposed(
+            fields.obstacle_field,
             v,
-            obstacle[i, :3],
-            obstacle[i, 3],
+            obstacle[i],
             goal - p,
             vehicle.collision_radius,
             params,

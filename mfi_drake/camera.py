@@ -30,7 +30,7 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.sensors import CameraInfo, ImageDepth32F, RgbdSensor
 
 from mfi_drake.scenario import DepthCamera
-from mfi_drake.sensing import OBSTACLE_SIGNAL_SIZE, VehicleGeometry
+from mfi_drake.sensing import OBSTACLE_SIGNAL_SIZE, VehicleGeometry, obstacle_signal
 
 RENDERER = "vtk"
 NEAR_CLIP = 0.01  # m, the renderer's near clipping plane
@@ -75,7 +75,8 @@ def pixel_rays(
 def closest_return(
     depth: np.ndarray, rays: np.ndarray, R_WC: np.ndarray, p_WC: np.ndarray, p
 ) -> np.ndarray:
-    """[p_o (3), seen]: the world point of the depth image closest to p.
+    """[p_o (3), seen]: the world point of the depth image closest to p
+    (the paper's reading: the point cloud is not split into obstacles).
 
     depth holds z-depths [m] (inf: no return; 0: closer than MIN_DEPTH, taken
     as MIN_DEPTH). Each return is back-projected, z·ray, and moved to the
@@ -84,7 +85,7 @@ def closest_return(
     z = np.asarray(depth, float).reshape(-1)
     hit = np.isfinite(z)
     if not hit.any():
-        return np.zeros(OBSTACLE_SIGNAL_SIZE)
+        return np.zeros(4)
     z = np.maximum(z[hit], MIN_DEPTH)
     points_W = (z[:, None] * rays[hit]) @ np.asarray(R_WC).T + p_WC
     closest = np.argmin(np.sum((points_W - p) ** 2, axis=1))
@@ -96,7 +97,7 @@ class DepthCameraSensor(LeafSystem):
 
     Inputs: "depth_image" (ImageDepth32F), "camera_pose" (X_WC, a
     RigidTransform), "state" (the plant's 12-vector).
-    Output: "obstacle" [p_o − p, seen].
+    Output: "obstacle": one reading [p_o − p, seen], the others unseen.
     Discrete state: the held [p_o, seen] and the number of frames rendered.
     """
 
@@ -117,7 +118,7 @@ class DepthCameraSensor(LeafSystem):
             "camera_pose", AbstractValue.Make(RigidTransform())
         )
         self._state = self.DeclareVectorInputPort("state", 12)
-        self._held = self.DeclareDiscreteState(OBSTACLE_SIGNAL_SIZE)
+        self._held = self.DeclareDiscreteState(4)
         self._frames = self.DeclareDiscreteState(1)
         self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate_hz, 0.0, self._render)
         self.DeclareVectorOutputPort(
@@ -151,10 +152,10 @@ class DepthCameraSensor(LeafSystem):
     def _calc(self, context, output):
         held = context.get_discrete_state(self._held).get_value()
         if held[3] <= 0.5:
-            output.SetFromVector(np.zeros(OBSTACLE_SIGNAL_SIZE))
+            output.SetFromVector(obstacle_signal([]))
             return
         p = self._state.Eval(context)[:3]
-        output.SetFromVector(np.append(held[:3] - p, 1.0))
+        output.SetFromVector(obstacle_signal([held[:3] - p]))
 
 
 def add_depth_camera(

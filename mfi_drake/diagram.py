@@ -31,8 +31,8 @@ from mfi_drake.faults import (
     add_state_estimate,
 )
 from mfi_drake.scenario import DepthCamera, Scenario, SphereSensor
+from mfi_drake.sensing import OBSTACLE_SIGNAL_SIZE, VehicleGeometry, register_obstacles
 from mfi_drake.sensing import SphereSensor as SphereSensorSystem
-from mfi_drake.sensing import VehicleGeometry, register_obstacles
 from mfi_drake.systems import (
     AttitudePD,
     GoalAttractionSelector,
@@ -44,7 +44,7 @@ from mfi_drake.vehicles import VEHICLES, Vehicle
 # What the log holds, in order: (name, size, source system, its output port).
 LOG_LAYOUT: list[tuple[str, int, str, str]] = [
     ("state", 12, "quadrotor", "state"),
-    ("obstacle", 4, "sensor", "obstacle"),
+    ("obstacle", OBSTACLE_SIGNAL_SIZE, "sensor", "obstacle"),
     ("obstacle_force_terms", 6, "navigator", "obstacle_force_terms"),
     ("goal_force_terms", 9, "selector", "goal_force_terms"),
     ("navigation_force", 3, "selector", "navigation_force"),

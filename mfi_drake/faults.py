@@ -150,16 +150,18 @@ def corrupt_reading(
     noise_std: float,
     dropout_prob: float,
 ) -> np.ndarray:
-    """One sensor sample [r_o, seen] as the navigator receives it: lost with
-    probability dropout_prob (then [0, 0, 0, 0], "nothing seen"), else r_o
-    plus Gaussian noise of std noise_std [m] per component when seen."""
+    """One sensor sample (readings [r_o, seen], see `sensing`) as the
+    navigator receives it: lost with probability dropout_prob (then all
+    zeros, "nothing seen"), else each seen r_o plus Gaussian noise of std
+    noise_std [m] per component."""
     lost = rng.random() < dropout_prob
-    noise = noise_std * rng.standard_normal(3)
-    if lost:
-        return 0.0 * np.asarray(reading)
     out = np.array(reading)
-    if out[3] > 0.5:
-        out[:3] = out[:3] + noise
+    noise = noise_std * rng.standard_normal((len(out) // 4, 3))
+    if lost:
+        return 0.0 * out
+    for i, n in enumerate(noise):
+        if out[4 * i + 3] > 0.5:
+            out[4 * i : 4 * i + 3] = out[4 * i : 4 * i + 3] + n
     return out
 
 
@@ -205,7 +207,7 @@ def SensorFaults_(T):
         samples held in discrete state; the output is the oldest sample
         ("nothing seen" until the first sample has come through).
 
-        Input: "obstacle" [r_o, seen] (true; `size` 4, see `sensing`).
+        Input: "obstacle" (true; `size` values, see `sensing`).
         Output: "obstacle" (corrupted).
         """
 

@@ -142,6 +142,23 @@ def obstacle_field(
     return F, F_a
 
 
+def superposed(field, v, obstacle, r_g, collision_radius: float, params):
+    """The terms (A, B) of an obstacle field, `field(v, r_o, seen, r_g,
+    collision_radius, params)` (e.g. `obstacle_field`), summed over the
+    readings [r_o, seen] of the "obstacle" signal (see `sensing`).
+
+    The fields of separate surface currents add: each obstacle contributes
+    eq 11–15 with its own closest point.
+    """
+    A = B = _zero3(v)
+    for i in range(0, len(obstacle), 4):
+        A_i, B_i = field(
+            v, obstacle[i : i + 3], obstacle[i + 3], r_g, collision_radius, params
+        )
+        A, B = A + A_i, B + B_i
+    return A, B
+
+
 def goal_attraction_field(v: np.ndarray, r_g: np.ndarray, K_omega: float):
     """Eq 16–18: F_gc = ω_ref × v with ω̂_g = −K_ω log(R_gᵀ R_v), ω_ref = R_g ω_g.
 

@@ -53,7 +53,8 @@ class NavigatorParams:
     max_tilt: float = 0.5
     """Limit on the desired roll and pitch of eq 24 [rad]."""
     min_thrust_fraction: float = 0.1
-    """Floor on T, as a fraction of m·g, used in eq 24 when T ≤ 0 [-]."""
+    """Least thrust T, as a fraction of m·g: F_n is scaled down to keep T above
+    it (eq 24) [-]."""
     tilt_compensation: bool = True
     """Divide T by cos(roll)·cos(pitch) so the vertical force is F_Qz."""
     yaw_follows_motion: bool = False

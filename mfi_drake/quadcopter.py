@@ -35,35 +35,45 @@ def attitude_setpoint(
 ) -> np.ndarray:
     """Eq 21 (after) – 24: [T, roll_d, pitch_d, yaw_d] from F_n.
 
-    F_Q = F_n + m g e_z, T = F_Q·e_z (divided by cos roll · cos pitch when
-    `tilt_compensation`, so the vertical force is F_Qz at any tilt). The
-    planar force f = K_Pv [F_nx, F_ny] (eq 22) is expressed in the yaw frame
-    and turned into small-angle tilts (eq 23–24) with Drake's signs:
-    pitch_d = f_x'/T, roll_d = −f_y'/T. When T is below
-    min_thrust_fraction·m·g (F_n pulls down hard, T ≤ 0 included) that floor
-    is used in eq 24 so the tilts stay bounded; the tilt vector
-    (roll_d, pitch_d) is scaled down to norm max_tilt when longer.
+    F_Q = F_n + m g e_z, T = F_Q·e_z (divided by ℓ = cos roll · cos pitch
+    when `tilt_compensation`, so the vertical force is F_Qz at any tilt; ℓ
+    is held at cos max_tilt beyond the tilt limit). The planar force
+    f = K_Pv [F_nx, F_ny] (eq 22) is expressed in the yaw frame and turned
+    into small-angle tilts (eq 23–24) with Drake's signs: pitch_d = f_x'/T,
+    roll_d = −f_y'/T.
+
+    The vehicle can deliver only thrusts T ≥ min_thrust_fraction·m·g and
+    tilts |f|/T ≤ max_tilt. When F_n asks for more, all of F_n is scaled
+    by the largest k ∈ (0, 1] it can deliver. Limiting the tilt or the
+    thrust alone would deliver one part of F_n in full and the other in
+    part: the delivered force would turn away from F_n (towards free fall
+    when F_n pulls down), and the terms of F_n that do no work (⟂ v,
+    eq 11–15) would start doing work. Scaling keeps F_n's direction:
+    T(k) = (k F_z + m g)/ℓ ≥ T_min gives k ≤ (m g − T_min ℓ)/(−F_z), and
+    K_Pv k |F_h| / T(k) ≤ max_tilt gives
+    k ≤ max_tilt m g / (K_Pv |F_h| ℓ − max_tilt F_z).
     """
     roll, pitch, yaw = entries(attitude)
     F_x, F_y, F_z = entries(F_n)
-    T = F_z + vehicle.mass * GRAVITY
+    weight = vehicle.mass * GRAVITY
+    level = 1.0
     if params.tilt_compensation:
-        T = T / (cos(roll) * cos(pitch))
-    T_floor = params.min_thrust_fraction * vehicle.mass * GRAVITY
-    T_tilt = T if T_floor < T else T_floor + 0.0 * T
-    f_x = params.K_Pv * F_x
-    f_y = params.K_Pv * F_y
+        level = cos(roll) * cos(pitch)
+        if level < cos(params.max_tilt):  # also keeps T > 0 upside down
+            level = cos(params.max_tilt) + 0.0 * level
+    T_min = params.min_thrust_fraction * weight
+    k = 1.0
+    if F_z + weight < T_min * level:
+        k = (weight - T_min * level) / (-F_z)
+    f_h = params.K_Pv * sqrt(F_x * F_x + F_y * F_y)
+    if f_h * level * k > params.max_tilt * (k * F_z + weight):
+        k = params.max_tilt * weight / (f_h * level - params.max_tilt * F_z)
+    T = (k * F_z + weight) / level
+    f_x = params.K_Pv * k * F_x
+    f_y = params.K_Pv * k * F_y
     c, s = cos(yaw), sin(yaw)
-    f_forward = c * f_x + s * f_y
-    f_left = -s * f_x + c * f_y
-    pitch_d = f_forward / T_tilt
-    roll_d = -f_left / T_tilt
-    tilt = sqrt(pitch_d * pitch_d + roll_d * roll_d)
-    if tilt > params.max_tilt:
-        # Scale, not clip per axis: the planar force keeps its direction, so
-        # terms ⟂ v stay ⟂ v (zero work) and F_v keeps braking.
-        pitch_d = pitch_d * (params.max_tilt / tilt)
-        roll_d = roll_d * (params.max_tilt / tilt)
+    pitch_d = (c * f_x + s * f_y) / T
+    roll_d = -(-s * f_x + c * f_y) / T
     return np.array([T, roll_d, pitch_d, yaw_desired])
 
 

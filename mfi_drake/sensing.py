@@ -1,9 +1,11 @@
 """Obstacles in SceneGraph, the vehicle's own geometry, and the sphere sensor.
 
 The navigator never sees SceneGraph: sensors turn geometry into the
-4-vector "obstacle" signal [r_o (3), seen], r_o being the vector from the
-vehicle centre to the closest obstacle point (world frame, m) and seen 1.0
-when an obstacle is in range, else 0.0 (with r_o = 0).
+"obstacle" signal: OBSTACLE_COUNT readings [r_o (3), seen], nearest first,
+r_o being the vector from the vehicle centre to an obstacle's closest point
+(world frame, m) and seen 1.0 when that obstacle is in range, else 0.0
+(with r_o = 0). The paper senses the closest point only; the navigator adds
+the fields of the nearest few obstacles (see `systems.ObstacleNavigator`).
 """
 
 import numpy as np
@@ -44,7 +46,8 @@ from mfi_drake import scenario as sc
 from mfi_drake.last_result import LastResult
 from mfi_drake.meshes import obstacle_pose
 
-OBSTACLE_SIGNAL_SIZE = 4
+OBSTACLE_COUNT = 3  # obstacles a reading reports, nearest first
+OBSTACLE_SIGNAL_SIZE = 4 * OBSTACLE_COUNT
 OBSTACLE_RGBA = Rgba(0.55, 0.55, 0.6, 0.6)
 VEHICLE_RGBA = Rgba(0.1, 0.3, 0.8, 1.0)
 
@@ -88,21 +91,27 @@ def register_obstacles(scene_graph: SceneGraph, scenario: sc.Scenario) -> None:
         scene_graph.RegisterAnchoredGeometry(source, instance)
 
 
-def closest_obstacle(query_object, p: np.ndarray, threshold: float) -> np.ndarray:
-    """[r_o, seen] for the closest proximity geometry within `threshold` of p.
+def obstacle_signal(points) -> np.ndarray:
+    """The "obstacle" signal from up to OBSTACLE_COUNT vectors r_o, nearest
+    first; the readings not filled are "nothing seen"."""
+    out = np.zeros(OBSTACLE_SIGNAL_SIZE)
+    for i, r_o in enumerate(points[:OBSTACLE_COUNT]):
+        out[4 * i : 4 * i + 3] = r_o
+        out[4 * i + 3] = 1.0
+    return out
+
+
+def nearest_obstacles(query_object, p: np.ndarray, threshold: float) -> np.ndarray:
+    """The "obstacle" signal: the closest point of each of the
+    OBSTACLE_COUNT proximity geometries nearest to p within `threshold`.
 
     Uses SceneGraph's ComputeSignedDistanceToPoint: the closest point is
     p − d ∇d (∇d is the outward gradient), so r_o = −d ∇d. Only obstacles
     carry the proximity role, so the vehicle never sees itself.
     """
     results = query_object.ComputeSignedDistanceToPoint(p, threshold)
-    if not results:
-        return np.zeros(OBSTACLE_SIGNAL_SIZE)
-    best = min(results, key=lambda r: r.distance)
-    # On Python floats: one array built instead of three numpy operations.
-    d = best.distance
-    g0, g1, g2 = best.grad_W.tolist()
-    return np.array([-d * g0, -d * g1, -d * g2, 1.0])
+    nearest = sorted(results, key=lambda r: r.distance)[:OBSTACLE_COUNT]
+    return obstacle_signal([-r.distance * r.grad_W for r in nearest])
 
 
 def obstacle_distances(scenario: sc.Scenario, points) -> list[float]:
@@ -120,10 +129,11 @@ def obstacle_distances(scenario: sc.Scenario, points) -> list[float]:
 
 
 class SphereSensor(LeafSystem):
-    """The paper's local sensor (§III): the closest obstacle point within r_s.
+    """The paper's local sensor (§III): the closest obstacle point within r_s,
+    of each of the OBSTACLE_COUNT nearest obstacles.
 
     Inputs: "query" (SceneGraph QueryObject), "state" (the plant's 12-vector).
-    Output: "obstacle" [r_o, seen].
+    Output: "obstacle" (OBSTACLE_COUNT readings [r_o, seen]).
     """
 
     def __init__(self, radius: float):
@@ -146,12 +156,12 @@ class SphereSensor(LeafSystem):
 
     def _calc(self, context, output):
         p = self._state.Eval(context)[:3]
+        query = self._query.Eval(context)
         # Keyed on p alone (the obstacles are anchored); the query object is
-        # evaluated only when p is new: it is valid only during this call.
-        output.SetFromVector(self._last(p.tobytes(), self._closest, context, p))
-
-    def _closest(self, context, p):
-        return closest_obstacle(self._query.Eval(context), p, self._radius)
+        # not kept, it is only valid during this evaluation.
+        output.SetFromVector(
+            self._last(p.tobytes(), nearest_obstacles, query, p, self._radius)
+        )
 
 
 class VehicleGeometry(LeafSystem):

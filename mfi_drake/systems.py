@@ -44,9 +44,17 @@ def ObstacleNavigator_(T):
     class Impl(LeafSystem_[T]):
         """An obstacle field F_o = A + B as a system, its two terms (A, B)
         given by `field(v, r_o, seen, r_g, collision_radius, params)` (for MFI
-        `fields.obstacle_field`: A = F, B = F_a of eq 11–15).
+        `fields.obstacle_field`: A = F, B = F_a of eq 11–15), summed over the
+        obstacles of the reading.
 
-        Inputs: "state" (12), "obstacle" [r_o, seen] from any sensor.
+        The paper uses the closest obstacle point only. Its fields are those
+        of currents on the obstacle surfaces, and fields of separate currents
+        add, so the terms of the nearest few obstacles are summed. With the
+        closest point alone, an obstacle hidden behind the one being followed
+        appears head-on within turning distance, and between two obstacles
+        the closest point jumps from side to side, so F_o flips with it.
+
+        Inputs: "state" (12), "obstacle" (readings [r_o, seen], `sensing`).
         Outputs: "obstacle_force" F_o (3), "obstacle_force_terms" [A, B] (6).
         """
 
@@ -96,10 +104,10 @@ def ObstacleNavigator_(T):
 
         def _terms_of(self, x, obstacle):
             p, v = _position_velocity(x)
-            A, B = self.field(
+            A, B = fields.superposed(
+                self.field,
                 v,
-                obstacle[:3],
-                obstacle[3],
+                obstacle,
                 self.goal - p,
                 self.collision_radius,
                 self.params,

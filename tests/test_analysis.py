@@ -15,6 +15,7 @@ from mfi_drake import analysis, fields
 from mfi_drake.cli import main
 from mfi_drake.quadcopter import attitude_gains
 from mfi_drake.scenario import load_scenario
+from mfi_drake.sensing import obstacle_signal
 from mfi_drake.simulation import simulate
 from mfi_drake.systems import MfiNavigator
 from mfi_drake.vehicles import GRAVITY, VEHICLES
@@ -126,7 +127,7 @@ def test_linearized_navigator_alone_matches_finite_differences_of_eq_11_15():
         navigator.GetInputPort("obstacle"),
     )
     state.FixValue(context, x)
-    obstacle.FixValue(context, np.r_[r_o, 1.0])
+    obstacle.FixValue(context, obstacle_signal([r_o]))
     D = Linearize(
         navigator,
         context,

@@ -25,6 +25,7 @@ from mfi_drake.baselines import (
 )
 from mfi_drake.diagram import build_diagram
 from mfi_drake.scenario import Scenario, ScenarioError, load_scenario
+from mfi_drake.sensing import obstacle_signal
 
 RADIUS = 0.2  # collision radius for these tests [m]
 CENTRE, SPHERE = np.array([3.0, 0.5, 1.0]), 0.8  # a sphere obstacle
@@ -208,7 +209,8 @@ def evaluate(system, inputs):
 def test_navigator_systems_are_thin_adapters_over_the_fields():
     x = np.zeros(12)
     x[0:3], x[6:9] = [1.0, 0.2, 1.5], [0.8, 0.1, 0.0]
-    obstacle = np.array([0.5, 0.05, 0.0, 1.0])
+    r_1, r_2 = np.array([0.5, 0.05, 0.0]), np.array([-0.2, 0.6, 0.1])
+    obstacle = obstacle_signal([r_1, r_2])
     for make, field, params in (
         (ApfNavigator, apf_obstacle_field, APF),
         (GfNavigator, gf_obstacle_field, GF),
@@ -216,7 +218,10 @@ def test_navigator_systems_are_thin_adapters_over_the_fields():
         context, system = evaluate(
             make(params, GOAL, RADIUS), {"state": x, "obstacle": obstacle}
         )
-        A, B = field(x[6:9], obstacle[:3], 1.0, GOAL - x[:3], RADIUS, params)
+        # Two obstacles seen: the sum of each one's terms.
+        A_1, B_1 = field(x[6:9], r_1, 1.0, GOAL - x[:3], RADIUS, params)
+        A_2, B_2 = field(x[6:9], r_2, 1.0, GOAL - x[:3], RADIUS, params)
+        A, B = A_1 + A_2, B_1 + B_2
         terms = system.GetOutputPort("obstacle_force_terms").Eval(context)
         np.testing.assert_allclose(terms, np.concatenate([A, B]))
         force = system.GetOutputPort("obstacle_force").Eval(context)

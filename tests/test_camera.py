@@ -25,7 +25,7 @@ from mfi_drake.scenario import (
     Sphere,
     load_scenario,
 )
-from mfi_drake.sensing import closest_obstacle
+from mfi_drake.sensing import OBSTACLE_SIGNAL_SIZE, nearest_obstacles
 from mfi_drake.simulation import simulate
 
 from .conftest import SCENARIOS
@@ -59,7 +59,7 @@ def view(obstacles, attitude=(0.0, 0.0, 0.0), camera=None):
     query = flight.scene_graph.get_query_output_port().Eval(
         flight.scene_graph.GetMyContextFromRoot(context)
     )
-    return seen, closest_obstacle(query, x[:3], np.inf)
+    return seen, nearest_obstacles(query, x[:3], np.inf)
 
 
 # Each shape in view, the last two with the camera off the vehicle centre and
@@ -170,7 +170,7 @@ def test_renders_at_its_own_rate_and_holds_the_point_between_frames():
     obstacle, p = flight.log["obstacle"], flight.positions
     # The sample at t = 0 is logged before the first frame; a sample at a
     # frame time k/rate closes the step before that frame's update.
-    np.testing.assert_array_equal(obstacle[0], np.zeros(4))
+    np.testing.assert_array_equal(obstacle[0], np.zeros(OBSTACLE_SIGNAL_SIZE))
     assert np.all(obstacle[1:, 3] == 1.0)  # the cylinder is in view all along
     held = obstacle[:, :3] + p  # the world point the camera last saw
     frame = np.ceil(flight.times * rate - 1e-6)

@@ -6,6 +6,7 @@ import pytest
 
 from mfi_drake import fields
 from mfi_drake.parameters import NavigatorParams
+from mfi_drake.sensing import obstacle_signal
 
 P = NavigatorParams()
 RADIUS = 0.2  # a collision radius for these tests [m]
@@ -66,6 +67,36 @@ def test_obstacle_terms_do_zero_work_for_random_inputs():
         scale = 1 + np.linalg.norm(F) + np.linalg.norm(F_a)
         assert abs(F @ v) <= 1e-12 * scale * np.linalg.norm(v)
         assert abs(F_a @ v) <= 1e-12 * scale * np.linalg.norm(v)
+
+
+def test_superposed_field_sums_the_readings_and_does_no_work():
+    """Two walls either side of a corridor, the vehicle on its axis: their
+    eq 14–15 terms cancel (no push to one side); off the axis the nearer
+    wall wins. Unseen readings add nothing; the sum does no work."""
+    v, r_g = np.array([1.0, 0, 0]), np.array([8.0, 0, 0])
+    gap = 0.3 + RADIUS
+    left, right = [0.1, gap, 0.0], [0.1, -gap, 0.0]
+    F, F_a = fields.superposed(
+        fields.obstacle_field, v, obstacle_signal([left, right]), r_g, RADIUS, P
+    )
+    np.testing.assert_allclose(F + F_a, np.zeros(3), atol=1e-12)
+    nearer = [0.1, gap - 0.1, 0.0]
+    F, F_a = fields.superposed(
+        fields.obstacle_field, v, obstacle_signal([nearer, right]), r_g, RADIUS, P
+    )
+    assert (F + F_a)[1] < 0  # turned away from the nearer (left, +y) wall
+    alone = fields.obstacle_field(v, np.array(nearer), 1.0, r_g, RADIUS, P)
+    np.testing.assert_allclose(
+        fields.superposed(
+            fields.obstacle_field, v, obstacle_signal([nearer]), r_g, RADIUS, P
+        ),
+        alone,
+    )
+    for v, r_o, r_g in random_states(200, seed=5):
+        readings = obstacle_signal([r_o, -0.7 * r_o[::-1], 0.5 * r_o])
+        F, F_a = fields.superposed(fields.obstacle_field, v, readings, r_g, RADIUS, P)
+        scale = 1 + np.linalg.norm(F) + np.linalg.norm(F_a)
+        assert abs((F + F_a) @ v) <= 1e-12 * scale * np.linalg.norm(v)
 
 
 def test_nothing_seen_rest_or_far_gives_no_obstacle_force():

@@ -54,6 +54,41 @@ def test_mix_inverts_eq8_when_feasible_and_clips_otherwise():
     assert clipped == 4
 
 
+@pytest.mark.parametrize("name", sorted(VEHICLES))
+def test_setpoint_delivers_F_n_or_a_fraction_of_it_in_its_direction(name):
+    """Level vehicle, any yaw: the small-angle force the setpoint delivers,
+    T (sin pitch_d forward, −sin roll_d left) + (T − m g) e_z ≈ K_Pv-weighted
+    [tilt T, T − m g], is k F_n with k ∈ (0, 1], k = 1 exactly when F_n is
+    within the thrust floor and the tilt limit, and the limits hold."""
+    vehicle = VEHICLES[name]
+    rng = np.random.default_rng(1)
+    T_min = P.min_thrust_fraction * vehicle.weight
+    for scale in (0.5, 5.0, 50.0):
+        for _ in range(200):
+            F_n = rng.normal(size=3) * scale * vehicle.weight / 5
+            yaw = rng.uniform(-np.pi, np.pi)
+            T, roll, pitch, _ = attitude_setpoint(
+                F_n, np.array([0, 0, yaw]), 0.0, vehicle, P
+            )
+            forward, left = pitch * T, -roll * T  # eq 24 inverted
+            c, s = np.cos(yaw), np.sin(yaw)
+            delivered = np.array(
+                [c * forward - s * left, s * forward + c * left, T - vehicle.weight]
+            )
+            k = delivered @ F_n / (F_n @ F_n)
+            np.testing.assert_allclose(delivered, k * F_n, atol=1e-9 * scale)
+            assert 0 < k <= 1 + 1e-12
+            assert T >= T_min * (1 - 1e-12)
+            assert np.hypot(roll, pitch) <= P.max_tilt * (1 + 1e-12)
+            thrust = F_n[2] + vehicle.weight
+            if thrust >= T_min and np.hypot(*F_n[:2]) <= P.max_tilt * thrust:
+                assert k == pytest.approx(1.0)
+            else:  # a limit binds
+                assert T == pytest.approx(T_min) or np.hypot(
+                    roll, pitch
+                ) == pytest.approx(P.max_tilt)
+
+
 def test_setpoint_signs_follow_drakes_convention():
     vehicle = VEHICLES["drake_default"]
     level = np.zeros(3)
@@ -65,11 +100,15 @@ def test_setpoint_signs_follow_drakes_convention():
     yawed = np.array([0, 0, np.pi / 2])
     _, roll, pitch, _ = attitude_setpoint(np.array([0, 1.0, 0]), yawed, 0.0, vehicle, P)
     assert pitch > 0 and abs(roll) < 1e-12
-    # Thrust ≤ 0 (F_n pulls down harder than gravity): finite, bounded tilts.
+    # F_n pulls down 45° far harder than gravity: scaled by hand-computed
+    # k = max_tilt m g / (|F_h| + max_tilt |F_z|) (the tilt bound binds; the
+    # thrust bound would allow 0.9 m g / 50), keeping its direction.
     T, roll, pitch, _ = attitude_setpoint(
         np.array([50.0, 0, -50.0]), level, 0, vehicle, P
     )
-    assert T < 0 and pitch == pytest.approx(P.max_tilt)
+    k = P.max_tilt * vehicle.weight / (50.0 + P.max_tilt * 50.0)
+    assert T == pytest.approx(vehicle.weight - 50.0 * k)
+    assert pitch == pytest.approx(P.max_tilt) and roll == 0
     assert wrap_angle(3 * np.pi / 2) == pytest.approx(-np.pi / 2)
 
 

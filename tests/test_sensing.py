@@ -7,7 +7,12 @@ from pydrake.geometry import SceneGraph
 from mfi_drake import scenario as sc
 from mfi_drake.diagram import build_diagram
 from mfi_drake.meshes import obstacle_pose, prism, write_obj
-from mfi_drake.sensing import closest_obstacle, register_obstacles
+from mfi_drake.sensing import (
+    OBSTACLE_COUNT,
+    OBSTACLE_SIGNAL_SIZE,
+    nearest_obstacles,
+    register_obstacles,
+)
 
 _ALIVE = []  # a QueryObject reads its SceneGraph context: keep both alive
 
@@ -37,7 +42,7 @@ ROTATED = [10.0, -20.0, 30.0]
 )
 def test_box_at_an_angle(p):
     obstacle = sc.Obstacle(sc.Box([2.0, 3.0, 4.0]), [0.5, -0.5, 0.0], ROTATED)
-    signal = closest_obstacle(query_for([obstacle]), np.array(p), 10.0)
+    signal = nearest_obstacles(query_for([obstacle]), np.array(p), 10.0)
     expected = box_closest(np.array(p), obstacle, np.array([1.0, 1.5, 2.0])) - p
     assert signal[3] == 1.0
     np.testing.assert_allclose(signal[:3], expected, atol=1e-9)
@@ -50,7 +55,7 @@ def test_sphere_capsule_cylinder_ellipsoid():
     d = p - c
     expected = -d * (1 - 0.7 / np.linalg.norm(d))
     np.testing.assert_allclose(
-        closest_obstacle(query_for([sphere]), p, 5)[:3], expected
+        nearest_obstacles(query_for([sphere]), p, 5)[:3], expected
     )
 
     # Capsule along z: distance to the segment minus the radius.
@@ -59,25 +64,25 @@ def test_sphere_capsule_cylinder_ellipsoid():
         nearest_axis = c + [0, 0, np.clip(q[2] - c[2], -1.0, 1.0)]
         d = q - nearest_axis
         expected = -d * (1 - 0.4 / np.linalg.norm(d))
-        got = closest_obstacle(query_for([capsule]), q, 5)[:3]
+        got = nearest_obstacles(query_for([capsule]), q, 5)[:3]
         np.testing.assert_allclose(got, expected, atol=1e-9)
 
     # Cylinder along z: radial from the side, straight down from above.
     cylinder = sc.Obstacle(sc.Cylinder(0.5, 2.0), list(c))
     side = c + [2.0, 0.0, 0.5]
     np.testing.assert_allclose(
-        closest_obstacle(query_for([cylinder]), side, 5)[:3], [-1.5, 0, 0], atol=1e-9
+        nearest_obstacles(query_for([cylinder]), side, 5)[:3], [-1.5, 0, 0], atol=1e-9
     )
     above = c + [0.2, 0.1, 2.5]
     np.testing.assert_allclose(
-        closest_obstacle(query_for([cylinder]), above, 5)[:3], [0, 0, -1.5], atol=1e-9
+        nearest_obstacles(query_for([cylinder]), above, 5)[:3], [0, 0, -1.5], atol=1e-9
     )
 
     # Ellipsoid, from along a principal axis. Drake's point distance to an
     # ellipsoid is iterative: it lands within ~2 mm here.
     ellipsoid = sc.Obstacle(sc.Ellipsoid([1.0, 2.0, 3.0]), list(c))
     np.testing.assert_allclose(
-        closest_obstacle(query_for([ellipsoid]), c + [0, 3.5, 0], 5)[:3],
+        nearest_obstacles(query_for([ellipsoid]), c + [0, 3.5, 0], 5)[:3],
         [0, -1.5, 0],
         atol=5e-3,
     )
@@ -91,19 +96,33 @@ def test_convex_mesh_is_its_polytope(tmp_path):
     for p in [np.array([2.0, 0.3, 1.2]), np.array([4.2, 2.0, -0.5])]:
         expected = box_closest(p, obstacle, np.full(3, 0.5)) - p
         np.testing.assert_allclose(
-            closest_obstacle(query, p, 5)[:3], expected, atol=1e-6
+            nearest_obstacles(query, p, 5)[:3], expected, atol=1e-6
         )
 
 
-def test_range_limit_and_the_closest_of_several():
+def test_range_limit_and_the_nearest_of_several_nearest_first():
     near = sc.Obstacle(sc.Sphere(0.5), [2.0, 0, 0])
     far = sc.Obstacle(sc.Sphere(0.5), [0, 3.0, 0])
-    query = query_for([near, far])
-    signal = closest_obstacle(query, np.zeros(3), 3.0)
-    np.testing.assert_allclose(signal, [1.5, 0, 0, 1.0])
+    query = query_for([far, near])
+    signal = nearest_obstacles(query, np.zeros(3), 3.0)
+    expected = np.zeros(OBSTACLE_SIGNAL_SIZE)
+    expected[:8] = [1.5, 0, 0, 1.0, 0, 2.5, 0, 1.0]
+    np.testing.assert_allclose(signal, expected, atol=1e-12)
+    expected[4:] = 0.0  # the far one is out of range
+    np.testing.assert_allclose(nearest_obstacles(query, np.zeros(3), 2.0), expected)
     np.testing.assert_array_equal(
-        closest_obstacle(query, np.zeros(3), 1.0), np.zeros(4)
+        nearest_obstacles(query, np.zeros(3), 1.0), np.zeros(OBSTACLE_SIGNAL_SIZE)
     )
+
+
+def test_only_the_nearest_obstacles_are_reported():
+    """Spheres at distances 1.5, 2.5, ... along x: the reading holds the
+    OBSTACLE_COUNT nearest, in order, whatever the registration order."""
+    spheres = [sc.Obstacle(sc.Sphere(0.5), [2.0 + k, 0, 0]) for k in range(6)]
+    signal = nearest_obstacles(query_for(spheres[::-1]), np.zeros(3), 100.0)
+    readings = signal.reshape(OBSTACLE_COUNT, 4)
+    np.testing.assert_allclose(readings[:, 0], 1.5 + np.arange(OBSTACLE_COUNT))
+    np.testing.assert_array_equal(readings[:, 3], 1.0)
 
 
 def test_the_vehicle_never_sees_itself():
@@ -115,4 +134,4 @@ def test_the_vehicle_never_sees_itself():
     flight.plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
     sensor = flight.diagram.GetSubsystemByName("sensor")
     signal = sensor.GetOutputPort("obstacle").Eval(sensor.GetMyContextFromRoot(context))
-    np.testing.assert_array_equal(signal, np.zeros(4))
+    np.testing.assert_array_equal(signal, np.zeros(OBSTACLE_SIGNAL_SIZE))
