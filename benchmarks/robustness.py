@@ -12,7 +12,10 @@ levels share DIR/results.jsonl, keyed by the fault variant, so an
 interrupted run resumes where it stopped.
 
 Writes DIR/robustness.md (the table: success and collision rates with 95 %
-Wilson intervals per level, and the break point) and DIR/robustness.json.
+Wilson intervals, timeouts and errors per level, and the break points) and
+DIR/robustness.json. Timeout: not within the goal tolerance at the end and
+no collision; error: the simulation raised (a tumble into the plant's
+roll-pitch-yaw gimbal lock).
 The break point of an imperfection is its smallest level whose success
 rate is significantly below the fault-free one: the two 95 % intervals do
 not overlap.
@@ -40,7 +43,7 @@ LEVELS: dict[str, tuple[str, list[tuple[float, Faults]]]] = {
     ),
     "sensor latency": (
         "s",
-        [(t, Faults(sensor_latency=t)) for t in (0.2, 0.4, 0.8)],
+        [(t, Faults(sensor_latency=t)) for t in (0.1, 0.2, 0.4, 0.8)],
     ),
     "motor time constant (up; down = 2×)": (
         "s",
@@ -63,18 +66,17 @@ LEVELS: dict[str, tuple[str, list[tuple[float, Faults]]]] = {
 }
 
 
-def _cell(stats: dict) -> str:
-    """success [CI] / collision [CI], then how many timed out or raised (a
-    tumble into the plant's gimbal lock)."""
-    s, c = stats["success_rate"], stats["collision_rate"]
-    s_ci, c_ci = stats["success_rate_ci95"], stats["collision_rate_ci95"]
+def _rate(stats: dict, outcome: str) -> str:
+    rate, ci = stats[f"{outcome}_rate"], stats[f"{outcome}_rate_ci95"]
+    return f"{rate:.2f} [{ci[0]:.2f}, {ci[1]:.2f}]"
+
+
+def _row(name: str, level: str, stats: dict, broken: bool) -> str:
     n = stats["n"]
-    timeouts = round(stats["timeout_rate"] * n)
-    errors = round(stats["error_rate"] * n)
-    return (
-        f"{s:.2f} [{s_ci[0]:.2f}, {s_ci[1]:.2f}] / "
-        f"{c:.2f} [{c_ci[0]:.2f}, {c_ci[1]:.2f}] ({timeouts} T, {errors} E)"
-    )
+    cells = [_rate(stats, "success"), _rate(stats, "collision")]
+    cells += [f"{round(stats[f'{o}_rate'] * n)}" for o in ("timeout", "error")]
+    mark = " **breaks**" if broken else ""
+    return f"| {name} | {level}{mark} | {n} | {' | '.join(cells)} |"
 
 
 def break_point(clean: dict, levels: list[tuple[float, dict]]) -> float | None:
@@ -86,30 +88,37 @@ def break_point(clean: dict, levels: list[tuple[float, dict]]) -> float | None:
     return None
 
 
-def robustness_table(results: dict, methods: list[str], n: int) -> str:
-    lines = [
-        f"Success / collision rate [95 % Wilson interval], {n} random fields per "
-        "cell (the sweep's default density, seed 0), then the number of "
-        "timeouts (T: not at the goal at the end, no collision) and errors (E: "
-        "the simulation raised, a tumble into gimbal lock).",
-        "",
-    ]
+def robustness_table(results: dict, methods: list[str]) -> str:
+    """One Markdown table per method: a row per imperfection and level, the
+    break point marked; then the break points in one line each."""
+    lines = []
     for method in methods:
         clean = results["none"][method]
         lines += [
-            f"**{method}** (no faults: {_cell(clean)})",
+            f"**{method}**",
             "",
-            "| imperfection [unit] | level 1 | level 2 | level 3 | breaks at |",
-            "|---|---|---|---|---|",
+            "| imperfection [unit] | level | flights | success [95% CI] "
+            "| collision [95% CI] | timeouts | errors |",
+            "|---|---|---|---|---|---|---|",
+            _row("none", "–", clean, False),
         ]
-        for name, (unit, all_levels) in LEVELS.items():
+        verdicts = []
+        for name, (unit, _) in LEVELS.items():
             levels = [(level, stats[method]) for level, stats in results.get(name, [])]
             broken = break_point(clean, levels)
-            cells = [f"{level:g}: {_cell(stats)}" for level, stats in levels]
-            cells += ["not flown yet"] * (len(all_levels) - len(levels))
-            verdict = "not within these levels" if broken is None else f"{broken:g}"
-            lines.append(f"| {name} [{unit}] | {' | '.join(cells)} | {verdict} |")
-        lines.append("")
+            for level, stats in levels:
+                lines.append(
+                    _row(f"{name} [{unit}]", f"{level:g}", stats, broken == level)
+                )
+            verdicts.append(
+                f"- {name}: "
+                + (
+                    "no break within the levels flown"
+                    if broken is None
+                    else f"breaks at {broken:g}{'' if unit == '-' else ' ' + unit}"
+                )
+            )
+        lines += ["", *verdicts, ""]
     return "\n".join(lines)
 
 
@@ -144,7 +153,7 @@ def main() -> None:
                 results.setdefault(name, []).append((level, stats))
             # Written after every cell, so a long run can be read as it goes.
             write_json(os.path.join(args.out, "robustness.json"), results)
-            table = robustness_table(results, methods, args.n)
+            table = robustness_table(results, methods)
             write_text(os.path.join(args.out, "robustness.md"), table + "\n")
     print(table)
 
