@@ -14,6 +14,7 @@ import numpy as np
 from mfi_drake.parameters import NavigatorParams
 from mfi_drake.so3 import (
     TINY,
+    bisector_turn,
     cross,
     dot,
     norm,
@@ -152,6 +153,8 @@ def superposed(field, v, obstacle, r_g, collision_radius: float, params):
     """
     A = B = _zero3(v)
     for i in range(0, len(obstacle), 4):
+        if obstacle[i + 3] <= 0.5:  # unseen: no term (skipped, as it is cheap)
+            continue
         A_i, B_i = field(
             v, obstacle[i : i + 3], obstacle[i + 3], r_g, collision_radius, params
         )
@@ -163,14 +166,18 @@ def goal_attraction_field(v: np.ndarray, r_g: np.ndarray, K_omega: float):
     """Eq 16–18: F_gc = ω_ref × v with ω̂_g = −K_ω log(R_gᵀ R_v), ω_ref = R_g ω_g.
 
     R_v and R_g are eq 16's rotations from r_ref to l_a and to r_g/|r_g|;
-    r_ref is chosen by `so3.reference_axis` (the bisector of l_a and l_g).
-    Zero when v = 0 or r_g = 0. Perpendicular to v (no work).
+    r_ref is chosen by `so3.reference_axis`: the bisector of l_a and l_g,
+    where eq 16–18 reduce to the closed form `so3.bisector_turn`, else a
+    fixed axis. Zero when v = 0 or r_g = 0. Perpendicular to v (no work).
     """
     speed, l_a = heading(v)
     distance = norm(r_g)
     if speed < TINY or distance < TINY:
         return _zero3(v)
     l_g = r_g / distance
+    turn = bisector_turn(l_a, l_g)
+    if turn is not None:
+        return cross(turn, v) * K_omega
     r_ref = reference_axis(l_a, l_g)
     R_v = rotation_from_reference(r_ref, l_a)
     R_g = rotation_from_reference(r_ref, l_g)

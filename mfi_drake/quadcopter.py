@@ -6,10 +6,12 @@ QuadrotorPlant conventions (NOTES.md): state (x, y, z, roll, pitch, yaw,
 thrust toward +x, +roll toward −y.
 """
 
+import math
+
 import numpy as np
 
 from mfi_drake.parameters import NavigatorParams
-from mfi_drake.so3 import cos, entries, sin, sqrt
+from mfi_drake.so3 import cos, entries, floor, sin, sqrt
 from mfi_drake.vehicles import GRAVITY, Vehicle
 
 
@@ -79,7 +81,7 @@ def attitude_setpoint(
 
 def wrap_angle(angle):
     """Angle wrapped to [−π, π)."""
-    return angle - 2.0 * np.pi * np.floor((angle + np.pi) / (2.0 * np.pi))
+    return angle - 2.0 * math.pi * floor((angle + math.pi) / (2.0 * math.pi))
 
 
 def desired_yaw(v: np.ndarray, yaw, params: NavigatorParams):
@@ -112,9 +114,17 @@ def attitude_pd_torque(
     Drake's plant gives the Euler-angle rates θ̇ directly, so the paper's
     small-angle approximation θ̇ ≈ ω is not needed. The yaw error is wrapped.
     """
-    e_roll, e_pitch, e_yaw = entries(attitude - desired)
-    error = np.array([e_roll, e_pitch, wrap_angle(e_yaw)])
-    return -(K_P * error + K_D * attitude_rates)
+    # On Python scalars: cheaper than numpy on 3-vectors.
+    roll, pitch, yaw = entries(attitude)
+    roll_d, pitch_d, yaw_d = entries(desired)
+    error = (roll - roll_d, pitch - pitch_d, wrap_angle(yaw - yaw_d))
+    rates = entries(attitude_rates)
+    return np.array(
+        [
+            -(P * e + D * r)
+            for P, e, D, r in zip(entries(K_P), error, entries(K_D), rates, strict=True)
+        ]
+    )
 
 
 def mixer_matrix(vehicle: Vehicle) -> np.ndarray:
@@ -130,8 +140,9 @@ def mixer_matrix(vehicle: Vehicle) -> np.ndarray:
     )
 
 
-def mix(thrust_torque: np.ndarray, D_inv: np.ndarray, u_max: float):
-    """Eq 8 inverted, u = D⁻¹ Γ, kept inside the rotor limits [0, u_max].
+def mix(thrust_torque: np.ndarray, D_inv, u_max: float):
+    """Eq 8 inverted, u = D⁻¹ Γ, kept inside the rotor limits [0, u_max]
+    (D_inv: D⁻¹ as an array or as nested lists, which are cheaper to read).
 
     Plain per-rotor clipping would sacrifice roll/pitch torque, and a
     quadcopter that loses attitude authority tumbles. So the limits are met
@@ -144,7 +155,7 @@ def mix(thrust_torque: np.ndarray, D_inv: np.ndarray, u_max: float):
     """
     # Per-rotor lists of Python scalars: cheaper than 4-element arrays.
     T, tau_x, tau_y, tau_z = entries(thrust_torque)
-    D = D_inv.tolist()
+    D = entries(D_inv)
     roll_pitch = [row[1] * tau_x + row[2] * tau_y for row in D]
     yaw = [row[3] * tau_z for row in D]
     limited = False

@@ -23,6 +23,14 @@ def _scalar_function(for_float, for_other):
 
 sqrt = _scalar_function(math.sqrt, np.sqrt)
 arccos = _scalar_function(math.acos, np.arccos)
+floor = _scalar_function(math.floor, np.floor)
+
+
+def atan2(y, x):
+    """atan2 of two scalars (math's for floats, numpy's otherwise)."""
+    return math.atan2(y, x) if isinstance(y, float) else np.arctan2(y, x)
+
+
 sin = _scalar_function(math.sin, np.sin)
 cos = _scalar_function(math.cos, np.cos)
 
@@ -145,6 +153,27 @@ def reference_axis(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray:
         ):
             return r_ref
     raise AssertionError("unreachable: some axis always qualifies")
+
+
+def bisector_turn(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray | None:
+    """ω_ref / K_ω of eq 17–18 when r_ref is the bisector of the unit vectors
+    l_a and l_g (see `reference_axis`); None where the bisector is undefined.
+
+    R_v and R_g then turn about the same unit axis u = l_a × l_g / |l_a × l_g|,
+    by −φ/2 and +φ/2 (φ the angle from l_a to l_g), so R_gᵀ R_v turns by −φ
+    about u, log(R_gᵀ R_v) = −φ û, and ω_ref = R_g ω_g = K_ω φ u: eq 16–18
+    without the two rotations and the logarithm.
+    """
+    a0, a1, a2 = entries(l_a)
+    g0, g1, g2 = entries(l_g)
+    b0, b1, b2 = a0 + g0, a1 + g1, a2 + g2
+    if sqrt(b0 * b0 + b1 * b1 + b2 * b2) <= _BISECTOR_MIN:
+        return None
+    w0, w1, w2 = a1 * g2 - a2 * g1, a2 * g0 - a0 * g2, a0 * g1 - a1 * g0
+    s = sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    # φ / sin φ → 1 as the two align (φ < 174° here, so cos φ > 0 then).
+    k = atan2(s, a0 * g0 + a1 * g1 + a2 * g2) / s if s > TINY else 1.0 + 0.0 * s
+    return np.array([k * w0, k * w1, k * w2])
 
 
 def so3_log(R: np.ndarray) -> np.ndarray:

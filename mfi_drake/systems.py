@@ -340,7 +340,7 @@ def RotorMixer_(T):
         def _construct(self, vehicle: Vehicle, converter=None):
             LeafSystem_[T].__init__(self, converter)
             self.vehicle = vehicle
-            self._D_inv = np.linalg.inv(mixer_matrix(vehicle))
+            self._D_inv = np.linalg.inv(mixer_matrix(vehicle)).tolist()
             self._last = LastResult(enabled=T is float)
             self._input = self.DeclareVectorInputPort("thrust_torque", 4)
             tickets = {self._input.ticket()}

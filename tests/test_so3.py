@@ -4,10 +4,12 @@ import numpy as np
 import pytest
 
 from mfi_drake.so3 import (
+    bisector_turn,
     cross,
     hat,
     reference_axis,
     rotation_from_reference,
+    rotation_vector,
     so3_log,
     vee,
 )
@@ -77,3 +79,25 @@ def test_reference_axis_keeps_eq16_away_from_its_singularity():
         assert 1 + r_ref @ l_a >= 0.3 - 1e-12
         assert 1 + r_ref @ l_g >= 0.3 - 1e-12
         assert np.linalg.norm(r_ref) == pytest.approx(1.0)
+
+
+def test_bisector_turn_is_eq_17_18_with_the_bisector_reference():
+    """The closed form against eq 16–18 evaluated with matrices: R_v, R_g
+    from r_ref = the bisector, ω_ref = R_g (−log(R_gᵀ R_v)) (K_ω = 1)."""
+    rng = np.random.default_rng(7)
+    pairs = [(np.array([1.0, 0, 0]), np.array([1.0, 0, 0]))]  # aligned: 0
+    pairs += [(np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))]  # 90°: π/2 e_z
+    for _ in range(300):
+        a, b = rng.normal(size=3), rng.normal(size=3)
+        pairs.append((a / np.linalg.norm(a), b / np.linalg.norm(b)))
+    for l_a, l_g in pairs:
+        turn = bisector_turn(l_a, l_g)
+        if np.linalg.norm(l_a + l_g) <= 0.1:
+            assert turn is None  # the fixed axes of reference_axis apply
+            continue
+        r_ref = reference_axis(l_a, l_g)
+        R_v = rotation_from_reference(r_ref, l_a)
+        R_g = rotation_from_reference(r_ref, l_g)
+        np.testing.assert_allclose(turn, R_g @ -rotation_vector(R_g.T @ R_v), atol=1e-9)
+    np.testing.assert_allclose(bisector_turn(*pairs[0]), np.zeros(3))
+    np.testing.assert_allclose(bisector_turn(*pairs[1]), [0, 0, np.pi / 2])
