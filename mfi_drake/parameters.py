@@ -51,7 +51,8 @@ class NavigatorParams:
     K_Pv: float = 1.0
     """Planar force weight K_Pv of eq 22 [-]."""
     max_tilt: float = 0.5
-    """Limit on the desired roll and pitch of eq 24 [rad]."""
+    """Limit on the desired roll and pitch of eq 24 [rad]; F_n is scaled down to
+    keep within it."""
     min_thrust_fraction: float = 0.1
     """Least thrust T, as a fraction of m·g: F_n is scaled down to keep T above
     it (eq 24) [-]."""
