@@ -45,12 +45,10 @@ class ApfParams:
     """The APF baseline (scenario field `apf:`). Defaults: the best of the
     grid in docs/tune_baselines.py (see the README, "Baselines")."""
 
-    attraction: AttractionParams = field(
-        default_factory=lambda: AttractionParams(k_att=0.75, k_d=1.0, v_max=1.0)
-    )
-    eta: float = 1.0
+    attraction: AttractionParams = field(default_factory=AttractionParams)
+    eta: float = 0.02
     """Repulsion gain η [N·m³]."""
-    rho_0: float = 0.3
+    rho_0: float = 1.5
     """Repulsion range ρ₀ [m], from the grown obstacle."""
     min_distance: float = 1e-3
     """Floor on r [m], so the repulsion stays finite at contact."""
@@ -63,13 +61,13 @@ class GfParams:
     near an obstacle the steering is limited by the tilt limit, not k_g."""
 
     attraction: AttractionParams = field(default_factory=AttractionParams)
-    k_g: float = 64.0
+    k_g: float = 32.0
     """Gyroscopic gain [N·s]: |S ṗ| = k_g |ṗ| (1/r − 1/r_d) (l_a·n)."""
-    r_d: float = 0.75
+    r_d: float = 0.5
     """Radius of the detection shell [m], from the grown obstacle."""
-    eta: float = 0.005
+    eta: float = 0.01
     """Repulsion gain η [N·m³] inside the safety shell."""
-    rho_0: float = 0.2
+    rho_0: float = 0.3
     """Radius of the safety shell ρ₀ [m]; must be < r_d."""
     tangent_blend: float = 0.3
     """|n⊥| below which the fallback direction is blended in (head-on) [-]."""
