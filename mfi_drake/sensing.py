@@ -114,16 +114,19 @@ def nearest_obstacles(query_object, p: np.ndarray, threshold: float) -> np.ndarr
     return obstacle_signal([-r.distance * r.grad_W for r in nearest])
 
 
-def obstacle_distances(scenario: sc.Scenario, points) -> list[float]:
-    """Exact signed distance from each point to the nearest obstacle surface
-    (inf when there are no obstacles)."""
+def obstacle_distances(
+    scenario: sc.Scenario, points, within: float = np.inf
+) -> list[float]:
+    """Exact signed distance from each point to the nearest obstacle surface;
+    inf when no obstacle is within `within` (SceneGraph's broadphase then
+    skips the far obstacles, which is what makes a threshold cheap)."""
     scene_graph = SceneGraph()
     register_obstacles(scene_graph, scenario)
     context = scene_graph.CreateDefaultContext()
     query = scene_graph.get_query_output_port().Eval(context)
     out = []
     for p in points:
-        results = query.ComputeSignedDistanceToPoint(np.asarray(p, float), np.inf)
+        results = query.ComputeSignedDistanceToPoint(np.asarray(p, float), within)
         out.append(min((r.distance for r in results), default=np.inf))
     return out
 

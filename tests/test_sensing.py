@@ -11,8 +11,10 @@ from mfi_drake.sensing import (
     OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,
     nearest_obstacles,
+    obstacle_distances,
     register_obstacles,
 )
+from mfi_drake.simulation import simulate
 
 _ALIVE = []  # a QueryObject reads its SceneGraph context: keep both alive
 
@@ -135,3 +137,22 @@ def test_the_vehicle_never_sees_itself():
     sensor = flight.diagram.GetSubsystemByName("sensor")
     signal = sensor.GetOutputPort("obstacle").Eval(sensor.GetMyContextFromRoot(context))
     np.testing.assert_array_equal(signal, np.zeros(OBSTACLE_SIGNAL_SIZE))
+
+
+@pytest.mark.parametrize("y", [1.0, 9.0])
+def test_flight_clearance_with_a_reach_equals_the_query_against_every_obstacle(y):
+    """flight_metrics queries within CLEARANCE_REACH (and everything only if
+    nothing was near); the oracle queries every obstacle at every step. A
+    sphere beside the line (y = 1) and one far from the whole flight (y = 9)."""
+    scenario = sc.Scenario(
+        obstacles=[
+            sc.Obstacle(sc.Sphere(0.5), [5.0, y, 2.0]),
+            sc.Obstacle(sc.Box([1.0, 1.0, 1.0]), [5.0, -y - 3.0, 2.0]),
+        ],
+        duration=8.0,
+    )
+    flight = simulate(scenario)
+    exact = min(obstacle_distances(scenario, flight.positions))
+    assert flight.metrics["min_clearance"] == pytest.approx(
+        exact - flight.collision_radius, abs=1e-12
+    )
