@@ -3,8 +3,9 @@
 Drake's `RgbdSensor`, fixed to the vehicle's body frame, renders a depth
 image with the VTK engine (headless, EGL). `DepthCameraSensor` back-projects
 its pixels into a point cloud, keeps the point closest to the vehicle centre
-and feeds the navigator the same 4-vector "obstacle" [r_o, seen] as the
-sphere sensor (see `sensing`). Pixels beyond max_range are "no return"; an
+and feeds the navigator the same "obstacle" signal as the sphere sensor
+(see `sensing`), with that one point as its only reading (the cloud is not
+split into obstacles). Pixels beyond max_range are "no return"; an
 image without returns means nothing is seen, and nothing seen earlier is
 remembered.
 
