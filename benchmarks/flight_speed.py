@@ -27,17 +27,15 @@ beside it.
 import argparse
 import dataclasses
 import os
-import time
 
 import numpy as np
 from pydrake.examples import StabilizingLQRController
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
 from mfi_drake.diagram import make_plant
 from mfi_drake.scenario import Scenario, load_scenario
-from mfi_drake.simulation import Flight, simulate
+from mfi_drake.simulation import Flight, run_timed, simulate, simulator_at_start
 from mfi_drake.vehicles import VEHICLES
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -99,19 +97,9 @@ def time_lqr_reference(scenario: Scenario, repeats: int) -> tuple[Run, np.ndarra
         builder.Connect(plant.get_output_port(0), controller.get_input_port())
         builder.Connect(controller.get_output_port(), plant.get_input_port(0))
         logger = LogVectorOutput(plant.get_output_port(0), builder, publish_period=0.0)
-        diagram = builder.Build()
-        simulator = Simulator(diagram)
-        ApplySimulatorConfig(scenario.simulator, simulator)
+        simulator = simulator_at_start(builder.Build(), plant, scenario)
         context = simulator.get_mutable_context()
-        context.SetAccuracy(scenario.simulator.accuracy)
-        x0 = np.zeros(12)
-        x0[0:3] = scenario.start
-        plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
-        start, start_cpu = time.perf_counter(), time.process_time()
-        simulator.Initialize()
-        simulator.AdvanceTo(scenario.duration)
-        wall_time = time.perf_counter() - start
-        cpu_time = time.process_time() - start_cpu
+        wall_time, cpu_time = run_timed(simulator, scenario.duration)
         integrator = simulator.get_integrator()
         run = Run(
             sim_time=context.get_time(),

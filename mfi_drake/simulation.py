@@ -43,10 +43,10 @@ def simulate(scenario: Scenario, method: str = "mfi") -> Flight:
     return fly(flight)
 
 
-def fly(flight: FlightDiagram) -> Flight:
-    """Simulates an already built diagram from the scenario's start at rest."""
-    scenario = flight.scenario
-    simulator = Simulator(flight.diagram)
+def simulator_at_start(diagram, plant, scenario: Scenario) -> Simulator:
+    """A Simulator of `diagram` with the scenario's SimulatorConfig, the
+    plant (a subsystem of `diagram`) at the scenario's start, at rest."""
+    simulator = Simulator(diagram)
     ApplySimulatorConfig(scenario.simulator, simulator)
     context = simulator.get_mutable_context()
     # The integrator's accuracy is set by the config; the context's accuracy
@@ -54,15 +54,30 @@ def fly(flight: FlightDiagram) -> Flight:
     context.SetAccuracy(scenario.simulator.accuracy)
     x0 = np.zeros(12)
     x0[0:3] = scenario.start
-    flight.plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
-    if flight.selector.num_discrete_state_groups():  # eq 21's mode (MFI only)
-        selector_context = flight.selector.GetMyMutableContextFromRoot(context)
-        flight.selector.set_mode(selector_context, flight.selector.initial_mode(x0))
+    plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
+    return simulator
+
+
+def run_timed(simulator: Simulator, duration: float) -> tuple[float, float]:
+    """Initialize + AdvanceTo(duration); (wall time, process CPU time) [s]."""
     start, start_cpu = time.perf_counter(), time.process_time()
     simulator.Initialize()
-    simulator.AdvanceTo(scenario.duration)
-    wall_time = time.perf_counter() - start
-    cpu_time = time.process_time() - start_cpu
+    simulator.AdvanceTo(duration)
+    return time.perf_counter() - start, time.process_time() - start_cpu
+
+
+def fly(flight: FlightDiagram) -> Flight:
+    """Simulates an already built diagram from the scenario's start at rest."""
+    scenario = flight.scenario
+    simulator = simulator_at_start(flight.diagram, flight.plant, scenario)
+    context = simulator.get_mutable_context()
+    if flight.selector.num_discrete_state_groups():  # eq 21's mode (MFI only)
+        x0 = flight.plant.GetMyContextFromRoot(context).get_continuous_state_vector()
+        selector_context = flight.selector.GetMyMutableContextFromRoot(context)
+        flight.selector.set_mode(
+            selector_context, flight.selector.initial_mode(x0.CopyToVector())
+        )
+    wall_time, cpu_time = run_timed(simulator, scenario.duration)
     integrator = simulator.get_integrator()
     depth = isinstance(scenario.sensor, DepthCamera)
     sensor = flight.diagram.GetSubsystemByName("sensor")
