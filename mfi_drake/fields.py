@@ -153,7 +153,7 @@ def superposed(field, v, obstacle, r_g, collision_radius: float, params):
     """
     A = B = _zero3(v)
     for i in range(0, len(obstacle), 4):
-        if obstacle[i + 3] <= 0.5:  # unseen: no term (skipped, as it is cheap)
+        if obstacle[i + 3] <= 0.5:  # unseen: its terms are zero; skip the call
             continue
         A_i, B_i = field(
             v, obstacle[i : i + 3], obstacle[i + 3], r_g, collision_radius, params

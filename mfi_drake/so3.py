@@ -128,6 +128,17 @@ _REFERENCE_MARGIN = 0.3
 _BISECTOR_MIN = 0.1
 
 
+def _bisector(a: list, g: list) -> list | None:
+    """(a + g)/|a + g| for the entries of unit vectors a and g, on Python
+    scalars (cheaper than numpy on 3-vectors); None when |a + g| ≤
+    _BISECTOR_MIN, where it is undefined for eq 16."""
+    b0, b1, b2 = a[0] + g[0], a[1] + g[1], a[2] + g[2]
+    size = sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+    if size <= _BISECTOR_MIN:
+        return None
+    return [b0 / size, b1 / size, b2 / size]
+
+
 def reference_axis(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray:
     """The reference r_ref of eq 16 for unit vectors l_a and l_g.
 
@@ -139,13 +150,9 @@ def reference_axis(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray:
     both. When the two are nearly opposite the bisector is undefined; then
     the first of six fixed axes with 1 + cos φ ≥ 0.3 for both is used.
     """
-    # The bisector on Python scalars (cheaper than numpy on 3-vectors).
-    a0, a1, a2 = entries(l_a)
-    g0, g1, g2 = entries(l_g)
-    b0, b1, b2 = a0 + g0, a1 + g1, a2 + g2
-    size = sqrt(b0 * b0 + b1 * b1 + b2 * b2)
-    if size > _BISECTOR_MIN:
-        return np.array([b0 / size, b1 / size, b2 / size])
+    bisector = _bisector(entries(l_a), entries(l_g))
+    if bisector is not None:
+        return np.array(bisector)
     for r_ref in _REFERENCE_CANDIDATES:
         if (
             1.0 + dot(r_ref, l_a) >= _REFERENCE_MARGIN
@@ -164,11 +171,11 @@ def bisector_turn(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray | None:
     about u, log(R_gᵀ R_v) = −φ û, and ω_ref = R_g ω_g = K_ω φ u: eq 16–18
     without the two rotations and the logarithm.
     """
-    a0, a1, a2 = entries(l_a)
-    g0, g1, g2 = entries(l_g)
-    b0, b1, b2 = a0 + g0, a1 + g1, a2 + g2
-    if sqrt(b0 * b0 + b1 * b1 + b2 * b2) <= _BISECTOR_MIN:
+    a, g = entries(l_a), entries(l_g)
+    if _bisector(a, g) is None:
         return None
+    a0, a1, a2 = a
+    g0, g1, g2 = g
     w0, w1, w2 = a1 * g2 - a2 * g1, a2 * g0 - a0 * g2, a0 * g1 - a1 * g0
     s = sqrt(w0 * w0 + w1 * w1 + w2 * w2)
     # φ / sin φ → 1 as the two align (φ < 174° here, so cos φ > 0 then).
