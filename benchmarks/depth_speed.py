@@ -19,8 +19,9 @@ import dataclasses
 import os
 import time
 
-from mfi_drake.scenario import Scenario, SphereSensor, load_scenario
-from mfi_drake.simulation import Flight, simulate
+from mfi_drake.config.scenario import Scenario, SphereSensor
+from mfi_drake.flight.simulation import Flight, simulate
+from mfi_drake.world.validation import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENARIOS = ["pelican_cylinder.yaml", "pelican_cube.yaml"]

@@ -33,10 +33,11 @@ from pydrake.examples import StabilizingLQRController
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from mfi_drake.diagram import make_plant
-from mfi_drake.scenario import Scenario, load_scenario
-from mfi_drake.simulation import Flight, run_timed, simulate, simulator_at_start
-from mfi_drake.vehicles import VEHICLES
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.flight.diagram import make_plant
+from mfi_drake.flight.simulation import Flight, run_timed, simulate, simulator_at_start
+from mfi_drake.world.validation import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PLANAR_WALL = os.path.join(ROOT, "scenarios", "planar_wall.yaml")

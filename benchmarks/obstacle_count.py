@@ -28,9 +28,9 @@ import time
 
 import numpy as np
 
-from mfi_drake.diagram import build_diagram
-from mfi_drake.generator import DEFAULT_WORKSPACE, random_field, random_obstacle
-from mfi_drake.simulation import fly
+from mfi_drake.flight.diagram import build_diagram
+from mfi_drake.flight.simulation import fly
+from mfi_drake.world.generator import DEFAULT_WORKSPACE, random_field, random_obstacle
 
 FAR = 12.0  # m, least distance of an added obstacle's centre from the line
 

@@ -25,9 +25,15 @@ import argparse
 import os
 from functools import partial
 
-from mfi_drake.faults import Faults, fault_variant, with_faults
-from mfi_drake.outputs import write_json, write_text
-from mfi_drake.sweep import SweepConfig, dask_client, run_sweep
+from mfi_drake.config.faults import Faults
+from mfi_drake.files import write_json, write_text
+from mfi_drake.studies.sweep import (
+    SweepConfig,
+    dask_client,
+    fault_variant,
+    run_sweep,
+    with_faults,
+)
 
 # imperfection -> (its unit, its levels as Faults), flown in this order (motor
 # lag last: its failing flights tumble and take ~40 s each). Motor lag keeps RotorS'

@@ -20,12 +20,12 @@ import os
 import tempfile
 import time
 
-from mfi_drake.sweep import SweepConfig, dask_client, run_sweep
+from mfi_drake.studies.sweep import SweepConfig, dask_client, run_sweep
 
 
 def _import_in_worker() -> None:
-    import mfi_drake.reference_path  # noqa: F401
-    import mfi_drake.simulation  # noqa: F401
+    import mfi_drake.flight.simulation  # noqa: F401
+    import mfi_drake.world.reference_path  # noqa: F401
 
 
 def flights_per_minute(workers: int, fields: int, seed: int) -> tuple[float, float]:

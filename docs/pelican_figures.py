@@ -21,13 +21,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from mfi_drake.camera import camera_info, pixel_rays  # noqa: E402
-from mfi_drake.cli import summary_line  # noqa: E402
-from mfi_drake.diagram import build_diagram  # noqa: E402
-from mfi_drake.outputs import atomic_path  # noqa: E402
-from mfi_drake.plotting import plot_flights  # noqa: E402
-from mfi_drake.scenario import load_scenario  # noqa: E402
-from mfi_drake.simulation import simulate  # noqa: E402
+from mfi_drake.app.cli import summary_line  # noqa: E402
+from mfi_drake.app.figures import plot_flights  # noqa: E402
+from mfi_drake.files import atomic_path  # noqa: E402
+from mfi_drake.flight.diagram import build_diagram  # noqa: E402
+from mfi_drake.flight.simulation import simulate  # noqa: E402
+from mfi_drake.systems.camera import camera_info, pixel_rays  # noqa: E402
+from mfi_drake.world.validation import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FIGURES = os.path.join(ROOT, "docs", "figures")

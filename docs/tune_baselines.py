@@ -15,10 +15,10 @@ import os
 import sys
 from dataclasses import replace
 
-from mfi_drake.baselines import ApfParams, AttractionParams, GfParams
-from mfi_drake.compare import PAPER_SCENARIOS
-from mfi_drake.scenario import load_scenario
-from mfi_drake.simulation import simulate
+from mfi_drake.config.parameters import ApfParams, AttractionParams, GfParams
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.studies.compare import PAPER_SCENARIOS
+from mfi_drake.world.validation import load_scenario
 
 # (k_att, k_d) pairs, all with v_max = MFI's v_d = 1 m/s: the same cruise
 # speed for every method; the first pair is MFI's own eq 20 gains.

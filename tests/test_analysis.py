@@ -11,14 +11,15 @@ from pydrake.symbolic import Evaluate, Jacobian, Variable
 from pydrake.systems.framework import InputPortIndex, OutputPortIndex
 from pydrake.systems.primitives import Linearize
 
-from mfi_drake import analysis, fields
-from mfi_drake.cli import main
-from mfi_drake.quadcopter import attitude_gains
-from mfi_drake.scenario import load_scenario
-from mfi_drake.sensing import obstacle_signal
-from mfi_drake.simulation import simulate
-from mfi_drake.systems import MfiNavigator
-from mfi_drake.vehicles import GRAVITY, VEHICLES
+from mfi_drake.app.cli import main
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.maths import fields
+from mfi_drake.maths.layout import obstacle_signal
+from mfi_drake.maths.quadcopter import GRAVITY, attitude_gains
+from mfi_drake.studies import analysis
+from mfi_drake.systems.navigation import MfiNavigator
+from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
 

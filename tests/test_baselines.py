@@ -6,16 +6,11 @@ import numpy as np
 import pytest
 from pydrake.autodiffutils import AutoDiffXd, ExtractValue, InitializeAutoDiff
 
-from mfi_drake import baselines
-from mfi_drake.baseline_systems import (
-    ApfNavigator,
-    GfNavigator,
-    PotentialGoalAttraction,
-)
-from mfi_drake.baselines import (
-    ApfParams,
-    AttractionParams,
-    GfParams,
+from mfi_drake.config.parameters import ApfParams, AttractionParams, GfParams
+from mfi_drake.config.scenario import Scenario, ScenarioError
+from mfi_drake.flight.diagram import build_diagram
+from mfi_drake.maths import baselines
+from mfi_drake.maths.baselines import (
     apf_obstacle_field,
     attraction_field,
     attraction_potential,
@@ -23,9 +18,13 @@ from mfi_drake.baselines import (
     gyroscopic_matrix,
     repulsive_potential,
 )
-from mfi_drake.diagram import build_diagram
-from mfi_drake.scenario import Scenario, ScenarioError, load_scenario
-from mfi_drake.sensing import obstacle_signal
+from mfi_drake.maths.layout import obstacle_signal
+from mfi_drake.systems.navigation import (
+    ApfNavigator,
+    GfNavigator,
+    PotentialGoalAttraction,
+)
+from mfi_drake.world.validation import load_scenario
 
 RADIUS = 0.2  # collision radius for these tests [m]
 CENTRE, SPHERE = np.array([3.0, 0.5, 1.0]), 0.8  # a sphere obstacle
@@ -261,7 +260,8 @@ def test_baseline_diagram_has_the_mfi_ports_and_log(method):
     navigator = flight.diagram.GetSubsystemByName("navigator")
     for port in ("obstacle_force", "obstacle_force_terms"):
         assert navigator.HasOutputPort(port)
-    assert flight.selector.num_discrete_state_groups() == 0
+    selector = flight.diagram.GetSubsystemByName("selector")
+    assert selector.num_discrete_state_groups() == 0
 
 
 @pytest.mark.parametrize(

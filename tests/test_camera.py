@@ -10,12 +10,9 @@ import os
 import numpy as np
 import pytest
 
-from mfi_drake.camera import closest_return, pixel_rays
-from mfi_drake.cli import main
-from mfi_drake.diagram import build_diagram
-from mfi_drake.parameters import NavigatorParams
-from mfi_drake.quadcopter import desired_yaw
-from mfi_drake.scenario import (
+from mfi_drake.app.cli import main
+from mfi_drake.config.parameters import NavigatorParams
+from mfi_drake.config.scenario import (
     Box,
     Cylinder,
     DepthCamera,
@@ -23,10 +20,14 @@ from mfi_drake.scenario import (
     Scenario,
     ScenarioError,
     Sphere,
-    load_scenario,
 )
-from mfi_drake.sensing import OBSTACLE_SIGNAL_SIZE, nearest_obstacles
-from mfi_drake.simulation import simulate
+from mfi_drake.flight.diagram import build_diagram
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE
+from mfi_drake.maths.quadcopter import desired_yaw
+from mfi_drake.systems.camera import closest_return, pixel_rays
+from mfi_drake.world.obstacles import nearest_obstacles
+from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
 

@@ -5,7 +5,7 @@ import shutil
 
 import pytest
 
-from mfi_drake.cli import main
+from mfi_drake.app.cli import main
 
 from .conftest import SCENARIOS
 

@@ -14,23 +14,22 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Integrator, Multiplexer
 
-from mfi_drake.cli import main
-from mfi_drake.diagram import build_diagram
-from mfi_drake.faults import (
-    Faults,
-    MotorLag,
-    SensorFaults,
-    StateEstimateError,
-    corrupt_reading,
+from mfi_drake.app.cli import main
+from mfi_drake.config.faults import Faults, faults_from_yaml
+from mfi_drake.config.scenario import Scenario, ScenarioError
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.flight.diagram import build_diagram
+from mfi_drake.flight.simulation import fly, simulate
+from mfi_drake.maths.faults import corrupt_reading, sample_rng
+from mfi_drake.studies.sweep import (
+    SweepConfig,
     fault_variant,
-    faults_from_yaml,
-    sample_rng,
+    read_results,
+    run_sweep,
     with_faults,
 )
-from mfi_drake.scenario import Scenario, ScenarioError, load_scenario
-from mfi_drake.simulation import fly, simulate
-from mfi_drake.sweep import SweepConfig, read_results, run_sweep
-from mfi_drake.vehicles import VEHICLES
+from mfi_drake.systems.faults import MotorLag, SensorFaults, StateEstimateError
+from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
 

@@ -4,9 +4,9 @@ forms and the zero-work property."""
 import numpy as np
 import pytest
 
-from mfi_drake import fields
-from mfi_drake.parameters import NavigatorParams
-from mfi_drake.sensing import obstacle_signal
+from mfi_drake.config.parameters import NavigatorParams
+from mfi_drake.maths import fields
+from mfi_drake.maths.layout import obstacle_signal
 
 P = NavigatorParams()
 RADIUS = 0.2  # a collision radius for these tests [m]

@@ -7,9 +7,8 @@ import os
 import numpy as np
 import pytest
 
-from mfi_drake import fields
-from mfi_drake.cli import main
-from mfi_drake.scenario import (
+from mfi_drake.app.cli import main
+from mfi_drake.config.scenario import (
     Box,
     Capsule,
     Cylinder,
@@ -17,9 +16,10 @@ from mfi_drake.scenario import (
     Obstacle,
     Scenario,
     Sphere,
-    load_scenario,
 )
-from mfi_drake.simulation import simulate
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.maths import fields
+from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
 

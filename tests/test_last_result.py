@@ -6,10 +6,10 @@ import os
 
 import numpy as np
 
-from mfi_drake import last_result
-from mfi_drake.last_result import LastResult
-from mfi_drake.scenario import load_scenario
-from mfi_drake.simulation import simulate
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.systems import last_result
+from mfi_drake.systems.last_result import LastResult
+from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
 

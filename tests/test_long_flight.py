@@ -8,9 +8,9 @@ import resource
 
 import numpy as np
 
-from mfi_drake.diagram import LOG_LAYOUT
-from mfi_drake.scenario import load_scenario
-from mfi_drake.simulation import simulate
+from mfi_drake.flight.diagram import LOG_LAYOUT
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
 

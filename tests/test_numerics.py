@@ -14,10 +14,11 @@ import numpy as np
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from mfi_drake import baselines, fields, so3
-from mfi_drake.faults import corrupt_reading, rotor_lag_rate, sample_rng
-from mfi_drake.parameters import NavigatorParams
-from mfi_drake.quadcopter import (
+from mfi_drake.config.parameters import ApfParams, GfParams, NavigatorParams
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.maths import baselines, fields, so3
+from mfi_drake.maths.faults import corrupt_reading, rotor_lag_rate, sample_rng
+from mfi_drake.maths.quadcopter import (
     attitude_gains,
     attitude_pd_torque,
     attitude_setpoint,
@@ -26,12 +27,11 @@ from mfi_drake.quadcopter import (
     mixer_matrix,
     wrap_angle,
 )
-from mfi_drake.vehicles import VEHICLES
 
 P = NavigatorParams()
 P_YAW = NavigatorParams(yaw_follows_motion=True)
-APF = baselines.ApfParams()
-GF = baselines.GfParams()
+APF = ApfParams()
+GF = GfParams()
 RADIUS = VEHICLES["drake_default"].collision_radius
 BIG = 1e6
 FAST = settings(

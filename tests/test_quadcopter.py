@@ -6,11 +6,17 @@ import pytest
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from mfi_drake.diagram import make_plant
-from mfi_drake.parameters import NavigatorParams
-from mfi_drake.quadcopter import attitude_setpoint, mix, mixer_matrix, wrap_angle
-from mfi_drake.systems import AttitudePD, RotorMixer
-from mfi_drake.vehicles import GRAVITY, VEHICLES
+from mfi_drake.config.parameters import NavigatorParams
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.flight.diagram import make_plant
+from mfi_drake.maths.quadcopter import (
+    GRAVITY,
+    attitude_setpoint,
+    mix,
+    mixer_matrix,
+    wrap_angle,
+)
+from mfi_drake.systems.control import AttitudePD, RotorMixer
 
 P = NavigatorParams()
 

@@ -7,8 +7,9 @@ import sys
 
 import pytest
 
-from mfi_drake.cli import main
-from mfi_drake.scenario import ScenarioError, load_scenario
+from mfi_drake.app.cli import main
+from mfi_drake.config.scenario import ScenarioError
+from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
 
@@ -115,7 +116,7 @@ def test_cli_reports_bad_input_with_exit_2_and_no_traceback(write_yaml, capsys):
 def test_console_script_exit_status(write_yaml):
     path = write_yaml(GOOD.replace("drake_default", "zeppelin"))
     done = subprocess.run(
-        [sys.executable, "-m", "mfi_drake.cli", "run", path],
+        [sys.executable, "-m", "mfi_drake.app.cli", "run", path],
         capture_output=True,
         text=True,
     )

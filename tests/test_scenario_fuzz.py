@@ -11,8 +11,9 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mfi_drake.faults import Faults
-from mfi_drake.scenario import Scenario, ScenarioError, load_scenario
+from mfi_drake.config.faults import Faults
+from mfi_drake.config.scenario import Scenario, ScenarioError
+from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
 

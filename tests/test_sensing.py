@@ -4,17 +4,17 @@ import numpy as np
 import pytest
 from pydrake.geometry import SceneGraph
 
-from mfi_drake import scenario as sc
-from mfi_drake.diagram import build_diagram
-from mfi_drake.meshes import obstacle_pose, prism, write_obj
-from mfi_drake.sensing import (
-    OBSTACLE_COUNT,
-    OBSTACLE_SIGNAL_SIZE,
+from mfi_drake.config import scenario as sc
+from mfi_drake.flight.diagram import build_diagram
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.maths.layout import OBSTACLE_COUNT, OBSTACLE_SIGNAL_SIZE
+from mfi_drake.world.meshes import prism, write_obj
+from mfi_drake.world.obstacles import (
     nearest_obstacles,
     obstacle_distances,
+    obstacle_pose,
     register_obstacles,
 )
-from mfi_drake.simulation import simulate
 
 _ALIVE = []  # a QueryObject reads its SceneGraph context: keep both alive
 

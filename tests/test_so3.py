@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mfi_drake.so3 import (
+from mfi_drake.maths.so3 import (
     bisector_turn,
     cross,
     hat,

@@ -1,0 +1,172 @@
+"""The typed parameters of the MFI navigator and quadcopter chain, and of
+the APF and GF baselines.
+
+The paper gives no numbers for any of these; the defaults below were chosen
+for a ~1 kg quadcopter cruising at 1 m/s among obstacles a few metres apart
+(see the README's parameter table for the reasoning). A scenario file
+overrides any of them by name under `navigator:`.
+"""
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+
+@dataclass
+class NavigatorParams:
+    # --- obstacle field, §IV-A ------------------------------------------
+    c: float = 4.0
+    """Boundary-following gain of eq 12 [N·s]."""
+    r_l: float = 1.5
+    """Boundary-following range of eq 13 [m], from the grown obstacle."""
+    c_perp: float = 0.2
+    """Collision-avoidance gain c⊥ of eq 15 [N·m³]."""
+    r_b: float = 0.6
+    """Collision-avoidance range of eq 15 [m]; must be < r_l."""
+    tangent_blend: float = 0.3
+    """|l_o| below which a deterministic tangent is blended into l_o [-]."""
+    min_distance: float = 1e-3
+    """Floor on r in eq 13/15 [m], so the fields stay finite at contact."""
+    # --- goal attraction, §IV-B -----------------------------------------
+    K_omega: float = 1.5
+    """Heading gain K_ω of eq 17 [kg/s]."""
+    K_v: float = 1.5
+    """Speed gain K_v of eq 19 [N·s/m]."""
+    v_d: float = 1.0
+    """Desired cruise speed v_d of eq 19 [m/s]."""
+    K_P: float = 1.5
+    """Position gain K_P of eq 20 [N/m]."""
+    K_D: float = 2.0
+    """Velocity gain K_D of eq 20 [N·s/m]."""
+    max_pd_force: float = 3.0
+    """Saturation of |F_pd| (eq 20) [N], so a far goal is not a huge pull."""
+    r_gl: float = 1.0
+    """Goal distance below which eq 21 selects the PD term [m]."""
+    goal_hysteresis: float = 0.25
+    """Extra distance beyond r_gl needed to leave the PD mode [m]."""
+    v_min: float = 0.2
+    """Speed above which "v ≠ 0" of eq 21 holds (PD → cruise) [m/s]."""
+    v_stop: float = 0.05
+    """Speed below which cruise falls back to PD (eq 21, v = 0) [m/s]."""
+    # --- quadcopter chain, §V -------------------------------------------
+    K_Pv: float = 1.0
+    """Planar force weight K_Pv of eq 22 [-]."""
+    max_tilt: float = 0.5
+    """Limit on the desired roll and pitch of eq 24 [rad]; F_n is scaled down to
+    keep within it."""
+    min_thrust_fraction: float = 0.1
+    """Least thrust T, as a fraction of m·g: F_n is scaled down to keep T above
+    it (eq 24) [-]."""
+    tilt_compensation: bool = True
+    """Divide T by cos(roll)·cos(pitch) so the vertical force is F_Qz."""
+    yaw_follows_motion: bool = False
+    """Yaw toward the horizontal velocity (so a forward camera looks where the
+    vehicle goes, §VI-B's remark) instead of the paper's θ_y,d = 0."""
+    attitude_natural_frequency: float = 15.0
+    """ω_n of the roll/pitch/yaw loops of eq 25 [rad/s]: K_Pθ = J ω_n²."""
+    attitude_damping_ratio: float = 0.9
+    """ζ of eq 25's loops [-]: K_Dθ = 2 ζ ω_n J."""
+
+
+def field_problems(params, prefix: str = "") -> list[tuple[str, object, str]]:
+    """Every bool field a bool, every other field a finite number > 0 (nested
+    dataclasses checked field by field, named "outer.inner")."""
+    problems = []
+    for f in dataclasses.fields(params):
+        value = getattr(params, f.name)
+        name = prefix + f.name
+        if dataclasses.is_dataclass(value):
+            problems += field_problems(value, name + ".")
+        elif f.type is bool:
+            if not isinstance(value, bool):
+                problems.append((name, value, "must be true or false"))
+        elif not isinstance(value, int | float) or not math.isfinite(value):
+            problems.append((name, value, "must be a finite number"))
+        elif value <= 0.0:
+            problems.append((name, value, "must be > 0"))
+    return problems
+
+
+def validate_params(params: NavigatorParams) -> list[tuple[str, object, str]]:
+    """Problems with `params` as (field, value, reason) triples; [] if none."""
+    problems = field_problems(params)
+    if not problems:
+        if params.r_b >= params.r_l:
+            problems.append(("r_b", params.r_b, f"must be < r_l = {params.r_l}"))
+        if params.v_stop >= params.v_min:
+            problems.append(
+                ("v_stop", params.v_stop, f"must be < v_min = {params.v_min}")
+            )
+        if params.v_min >= params.v_d:
+            problems.append(("v_min", params.v_min, f"must be < v_d = {params.v_d}"))
+        if params.max_tilt >= math.pi / 2:
+            problems.append(("max_tilt", params.max_tilt, "must be < π/2"))
+        if params.tangent_blend >= 1.0:
+            problems.append(("tangent_blend", params.tangent_blend, "must be < 1"))
+        if params.min_thrust_fraction >= 1.0:
+            problems.append(
+                ("min_thrust_fraction", params.min_thrust_fraction, "must be < 1")
+            )
+    return problems
+
+
+# --- the baselines (§VI-A; their fields are in `maths.baselines`) --------------
+@dataclass
+class AttractionParams:
+    """Goal attraction of both baselines. The defaults equal MFI's eq 20 gains
+    (K_P, K_D) and cruise speed v_d; tuning keeps v_max = v_d, so all three
+    methods approach the goal at the same speed."""
+
+    k_att: float = 1.5
+    """Stiffness of the quadratic well around the goal [N/m]."""
+    k_d: float = 2.0
+    """Velocity damping [N·s/m]."""
+    v_max: float = 1.0
+    """Khatib's velocity limit [m/s]: beyond d* = k_d v_max / k_att the pull is
+    the constant k_d v_max [N], so the vehicle cruises at v_max."""
+
+
+@dataclass
+class ApfParams:
+    """The APF baseline (scenario field `apf:`). Defaults: the best of the
+    grid in docs/tune_baselines.py (see the README, "Baselines")."""
+
+    attraction: AttractionParams = field(default_factory=AttractionParams)
+    eta: float = 0.02
+    """Repulsion gain η [N·m³]."""
+    rho_0: float = 1.5
+    """Repulsion range ρ₀ [m], from the grown obstacle."""
+    min_distance: float = 1e-3
+    """Floor on r [m], so the repulsion stays finite at contact."""
+
+
+@dataclass
+class GfParams:
+    """The GF baseline (scenario field `gf:`). Defaults: the best of the grid
+    in docs/tune_baselines.py (see the README, "Baselines"); so strong that
+    near an obstacle the steering is limited by the tilt limit, not k_g."""
+
+    attraction: AttractionParams = field(default_factory=AttractionParams)
+    k_g: float = 32.0
+    """Gyroscopic gain [N·s]: |S ṗ| = k_g |ṗ| (1/r − 1/r_d) (l_a·n)."""
+    r_d: float = 0.5
+    """Radius of the detection shell [m], from the grown obstacle."""
+    eta: float = 0.01
+    """Repulsion gain η [N·m³] inside the safety shell."""
+    rho_0: float = 0.3
+    """Radius of the safety shell ρ₀ [m]; must be < r_d."""
+    tangent_blend: float = 0.3
+    """|n⊥| below which the fallback direction is blended in (head-on) [-]."""
+    min_distance: float = 1e-3
+    """Floor on r [m], so the fields stay finite at contact."""
+
+
+def baseline_problems(params: ApfParams | GfParams) -> list[tuple[str, object, str]]:
+    """Cross-field problems of a baseline's parameters as (field, value,
+    reason); the per-field checks are `field_problems`."""
+    if isinstance(params, GfParams):
+        if params.rho_0 >= params.r_d:
+            return [("rho_0", params.rho_0, f"must be < r_d = {params.r_d}")]
+        if params.tangent_blend >= 1.0:
+            return [("tangent_blend", params.tangent_blend, "must be < 1")]
+    return []

@@ -1,0 +1,377 @@
+"""Scenario files: typed dataclasses loaded with Drake's `yaml_load_typed`.
+
+A scenario says where the vehicle starts and must go, which vehicle flies,
+how it senses, which obstacles exist (unknown to the navigator), and any
+overrides of the navigator parameters and of Drake's SimulatorConfig.
+
+Scenarios layer as in Drake's hardware_sim: `parse_scenario` loads a file
+onto the defaults, then each override (YAML text or an override file) onto
+the result with `yaml_load_typed(..., defaults=...)`. `check_scenario` finds
+every problem that needs no geometry; `world.validation.load_scenario` adds
+the geometric ones. Both raise `ScenarioError` naming the file, the field
+and the value.
+"""
+
+import dataclasses
+import math
+import os
+import types
+import typing
+from dataclasses import dataclass, field
+
+import yaml
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+from pydrake.systems.analysis import SimulatorConfig
+
+from mfi_drake.config.faults import Faults, fault_problems
+from mfi_drake.config.parameters import (
+    ApfParams,
+    GfParams,
+    NavigatorParams,
+    baseline_problems,
+    field_problems,
+    validate_params,
+)
+from mfi_drake.config.vehicles import VEHICLES
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be flown; the message is one line for the user."""
+
+
+# --- obstacle shapes (the YAML tags !Box, !Sphere, ...) -----------------------
+@dataclass
+class Box:
+    size: list[float] = field(default_factory=lambda: [1.0, 1.0, 1.0])  # m
+
+
+@dataclass
+class Sphere:
+    radius: float = 0.5  # m
+
+
+@dataclass
+class Cylinder:
+    radius: float = 0.5  # m
+    length: float = 1.0  # m, along the obstacle's z axis
+
+
+@dataclass
+class Capsule:
+    radius: float = 0.5  # m
+    length: float = 1.0  # m, of the cylindrical part, along z
+
+
+@dataclass
+class Ellipsoid:
+    radii: list[float] = field(default_factory=lambda: [0.5, 0.5, 0.5])  # m
+
+
+@dataclass
+class Convex:
+    file: str = ""  # Wavefront OBJ; a relative path is relative to the YAML file
+    scale: float = 1.0
+
+
+Shape = Box | Sphere | Cylinder | Capsule | Ellipsoid | Convex
+
+
+@dataclass
+class Obstacle:
+    shape: Shape = field(default_factory=Box)
+    position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # m
+    rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # deg
+
+
+# --- sensors ------------------------------------------------------------------
+@dataclass
+class SphereSensor:
+    """Sees every obstacle point within `radius` of the vehicle centre."""
+
+    radius: float = 3.0  # m, the paper's r_s
+
+
+@dataclass
+class DepthCamera:
+    """An on-board depth camera (paper §VI-B), fixed to the body, looking +x."""
+
+    width: int = 160  # pixels
+    height: int = 120  # pixels
+    fov_y_deg: float = 60.0  # vertical field of view, degrees
+    max_range: float = 6.0  # m; farther pixels are "no return"
+    rate_hz: float = 30.0  # frames per second
+    # The camera's pose on the body: optical centre in the body frame [m] and
+    # orientation [deg] (zero: looking along body +x, image up = body +z).
+    position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+Sensor = SphereSensor | DepthCamera
+
+
+def default_simulator_config() -> SimulatorConfig:
+    """Error-controlled RK3 at accuracy 1e-4 (the logger records every step
+    through its own per-step event, so no forced publishing is needed)."""
+    return SimulatorConfig(
+        integration_scheme="runge_kutta3",
+        max_step_size=0.1,
+        accuracy=1e-4,
+        use_error_control=True,
+        target_realtime_rate=0.0,
+    )
+
+
+@dataclass
+class Scenario:
+    name: str = "unnamed"
+    start: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.5])  # m
+    goal: list[float] = field(default_factory=lambda: [5.0, 0.0, 1.5])  # m
+    duration: float = 30.0  # s of simulated time
+    vehicle: str = "drake_default"
+    sensor: Sensor = field(default_factory=SphereSensor)
+    obstacles: list[Obstacle] = field(default_factory=list)
+    navigator: NavigatorParams = field(default_factory=NavigatorParams)
+    apf: ApfParams = field(default_factory=ApfParams)  # the APF baseline's gains
+    gf: GfParams = field(default_factory=GfParams)  # the GF baseline's gains
+    faults: Faults = field(default_factory=Faults)  # all off by default
+    simulator: SimulatorConfig = field(default_factory=default_simulator_config)
+    goal_tolerance: float = 0.1  # m, "reached" radius
+    # Directory that relative mesh paths are resolved against (not in YAML).
+    base_dir: str = ""
+
+
+def fail(where: str, name: str, value, reason: str):
+    if not name.isprintable():  # a YAML key may hold a line break
+        name = repr(name)
+    raise ScenarioError(f"{where}: {name} = {value!r}: {reason}")
+
+
+def _check_vector(where, name, value, positive=False):
+    if not isinstance(value, list) or len(value) != 3:
+        fail(where, name, value, "must be a list of 3 numbers")
+    for x in value:
+        if not isinstance(x, int | float) or not math.isfinite(x):
+            fail(where, name, value, "must hold finite numbers")
+        if positive and x <= 0:
+            fail(where, name, value, "must be > 0")
+
+
+def _check_positive(where, name, value):
+    if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
+        fail(where, name, value, "must be a finite number > 0")
+
+
+MIN_DEPTH = 0.02  # m; a depth camera's closer pixels come back as "too close"
+
+
+def _check_camera(where: str, camera: DepthCamera) -> None:
+    for name in ("width", "height"):
+        value = getattr(camera, name)
+        if not isinstance(value, int) or value <= 0:
+            fail(where, f"sensor.{name}", value, "must be a whole number > 0")
+    fov = camera.fov_y_deg
+    _check_positive(where, "sensor.fov_y_deg", fov)
+    if fov >= 180.0:
+        fail(where, "sensor.fov_y_deg", fov, "must be < 180")
+    _check_positive(where, "sensor.max_range", camera.max_range)
+    if camera.max_range <= MIN_DEPTH:
+        fail(where, "sensor.max_range", camera.max_range, f"must be > {MIN_DEPTH}")
+    _check_positive(where, "sensor.rate_hz", camera.rate_hz)
+    _check_vector(where, "sensor.position", camera.position)
+    _check_vector(where, "sensor.rpy_deg", camera.rpy_deg)
+
+
+def mesh_path(scenario: Scenario, shape: Convex) -> str:
+    """Absolute path of a convex mesh file."""
+    return os.path.join(scenario.base_dir, shape.file)
+
+
+def _check_shape(where: str, shape) -> None:
+    """Every size of every shape kind is > 0: 3-vectors (Box.size,
+    Ellipsoid.radii) component-wise, numbers (radius, length, scale) as a
+    whole. A convex shape's file is checked where meshes are read
+    (`world.validation`)."""
+    if not isinstance(shape, Shape):
+        fail(where, "shape", shape, "unknown shape")
+    for f in dataclasses.fields(shape):
+        value = getattr(shape, f.name)
+        if isinstance(value, list):
+            _check_vector(where, f"shape.{f.name}", value, positive=True)
+        elif not isinstance(value, str):
+            _check_positive(where, f"shape.{f.name}", value)
+
+
+def check_scenario(scenario: Scenario, where: str) -> None:
+    """Raises ScenarioError for the first problem found that needs no
+    geometry, naming `where`."""
+    if not scenario.name:
+        fail(where, "name", scenario.name, "must not be empty")
+    _check_vector(where, "start", scenario.start)
+    _check_vector(where, "goal", scenario.goal)
+    _check_positive(where, "duration", scenario.duration)
+    _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
+    if scenario.vehicle not in VEHICLES:
+        fail(where, "vehicle", scenario.vehicle, f"must be one of {sorted(VEHICLES)}")
+    if isinstance(scenario.sensor, SphereSensor):
+        _check_positive(where, "sensor.radius", scenario.sensor.radius)
+    elif isinstance(scenario.sensor, DepthCamera):
+        _check_camera(where, scenario.sensor)
+    else:
+        fail(where, "sensor", scenario.sensor, "unknown sensor")
+    for name, value, reason in validate_params(scenario.navigator):
+        fail(where, f"navigator.{name}", value, reason)
+    for key in ("apf", "gf"):
+        params = getattr(scenario, key)
+        for name, value, reason in field_problems(params) or baseline_problems(params):
+            fail(where, f"{key}.{name}", value, reason)
+    for name, value, reason in fault_problems(scenario.faults):
+        fail(where, f"faults.{name}", value, reason)
+    sim = scenario.simulator
+    _check_positive(where, "simulator.accuracy", sim.accuracy)
+    _check_positive(where, "simulator.max_step_size", sim.max_step_size)
+    for i, obstacle in enumerate(scenario.obstacles):
+        at = f"{where}: obstacles[{i}]"
+        _check_shape(at, obstacle.shape)
+        _check_vector(at, "position", obstacle.position)
+        _check_vector(at, "rpy_deg", obstacle.rpy_deg)
+
+
+class _TaggedLoader(yaml.SafeLoader):
+    """Reads `!Tag {..}` as {"_tag": "Tag", ...} for the schema check."""
+
+
+def _construct_tagged(loader, suffix, node):
+    if isinstance(node, yaml.MappingNode):
+        data = loader.construct_mapping(node, deep=True)
+    else:
+        data = {"_value": loader.construct_object(node, deep=True)}
+    return {"_tag": suffix, **data}
+
+
+_TaggedLoader.add_multi_constructor("!", _construct_tagged)
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool)
+
+
+def _check_schema(data, schema, where: str, name: str) -> None:
+    """Checks raw YAML `data` against dataclass `schema` so that a wrong key or
+    type is reported with its field path (yaml_load_typed's own messages do
+    not always name the field). Drake's own config classes are left to
+    yaml_load_typed."""
+    shown = name or "scenario"
+    if not dataclasses.is_dataclass(schema):
+        return
+    if not isinstance(data, dict):
+        fail(where, shown, data, f"must be a mapping of {schema.__name__} fields")
+    hints = typing.get_type_hints(schema)
+    for key, value in data.items():
+        if key == "_tag":
+            continue
+        field_name = f"{name}.{key}" if name else str(key)
+        if key not in hints or key == "base_dir":
+            fail(where, field_name, value, f"unknown field of {schema.__name__}")
+        _check_value(value, hints[key], where, field_name)
+
+
+def _check_value(value, hint, where: str, name: str) -> None:
+    origin = typing.get_origin(hint)
+    if hint is float:
+        if not _is_number(value):
+            fail(where, name, value, "must be a number")
+    elif hint is int:
+        if not isinstance(value, int) or isinstance(value, bool):
+            fail(where, name, value, "must be an integer")
+    elif hint is bool:
+        if not isinstance(value, bool):
+            fail(where, name, value, "must be true or false")
+    elif hint is str:
+        if not isinstance(value, str):
+            fail(where, name, value, "must be a string")
+    elif origin is list:
+        if not isinstance(value, list):
+            fail(where, name, value, "must be a list")
+        (item,) = typing.get_args(hint)
+        for i, x in enumerate(value):
+            _check_value(x, item, where, f"{name}[{i}]")
+    elif origin in (types.UnionType, typing.Union):
+        options = {t.__name__: t for t in typing.get_args(hint)}
+        # Untagged is the first alternative, as Drake writes and reads it.
+        first = next(iter(options))
+        tag = value.get("_tag", first) if isinstance(value, dict) else None
+        if not isinstance(tag, str) or tag not in options:
+            fail(
+                where,
+                name,
+                tag or value,
+                f"must be tagged one of !{', !'.join(options)}",
+            )
+        _check_schema(value, options[tag], where, name)
+    else:
+        _check_schema(value, hint, where, name)
+
+
+def _read_yaml(text: str, where: str):
+    try:
+        return yaml.load(text, Loader=_TaggedLoader)
+    except (yaml.YAMLError, RecursionError) as e:
+        message = " ".join(str(e).split())
+        raise ScenarioError(f"{where}: not valid YAML: {message}") from None
+
+
+def _read_file(path: str) -> str:
+    if not os.path.isfile(path):
+        raise ScenarioError(f"{path}: no such scenario file")
+    try:
+        with open(path) as f:
+            return f.read()
+    except (UnicodeDecodeError, OSError) as e:
+        message = " ".join(str(e).split())
+        raise ScenarioError(f"{path}: not valid YAML: {message}") from None
+
+
+def layer(scenario: Scenario, text: str, where: str) -> Scenario:
+    """`scenario` with the YAML mapping `text` loaded on top of it (fields
+    that `text` does not name keep their values). Not validated."""
+    raw = _read_yaml(text, where)
+    if raw is None:
+        return scenario
+    _check_schema(raw, Scenario, where, "")
+    base_dir = scenario.base_dir
+    try:
+        layered = yaml_load_typed(schema=Scenario, data=text, defaults=scenario)
+    except Exception as e:  # yaml_load_typed raises several types
+        message = " ".join(str(e).split())
+        raise ScenarioError(f"{where}: {message}") from None
+    layered.base_dir = base_dir
+    return layered
+
+
+def read_override(path: str) -> tuple[str, str]:
+    """(path, its text): an override file for `parse_scenario`."""
+    return path, _read_file(path)
+
+
+def parse_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> Scenario:
+    """The scenario file `path` on the defaults, then each override (where,
+    YAML text) on top, e.g. ("--set", "faults: {sensor_noise_std: 0.05}") or
+    `read_override("tuned.yaml")`. Checked by `check_scenario`; relative mesh
+    paths resolve against `path`'s directory."""
+    scenario = Scenario(base_dir=os.path.dirname(os.path.abspath(path)))
+    scenario = layer(scenario, _read_file(path), path)
+    for where, text in overrides:
+        scenario = layer(scenario, text, where)
+    check_scenario(scenario, path)
+    return scenario
+
+
+def scenario_to_yaml(scenario: Scenario) -> str:
+    """The whole scenario, base_dir included, as YAML text: what travels to a
+    sweep worker (Drake's SimulatorConfig does not pickle)."""
+    return yaml_dump_typed(scenario, defaults=Scenario())
+
+
+def scenario_from_yaml(text: str) -> Scenario:
+    """The inverse of `scenario_to_yaml` (trusted text: not validated)."""
+    return yaml_load_typed(schema=Scenario, data=text, defaults=Scenario())

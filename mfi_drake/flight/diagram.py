@@ -1,0 +1,214 @@
+"""`build_diagram`: one scenario and one method, one Drake diagram.
+
+    SceneGraph ──query──▶ sensor ──obstacle──▶ navigator ──F_o──▶ selector
+        ▲                   ▲                      ▲                 │ F_n
+        │ pose              │ state                │ state           ▼
+    VehicleGeometry ◀── QuadrotorPlant ◀── RotorMixer ◀── AttitudePD ◀┘
+
+Every signal worth reading afterwards goes through one Multiplexer into a
+VectorLogSink that records at every integrator step. The scenario's faults
+(`faults`) are inserted only when turned on; the log keeps the true state.
+"""
+
+from dataclasses import dataclass
+
+from pydrake.examples import QuadrotorPlant
+from pydrake.geometry import SceneGraph
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
+
+from mfi_drake.config.faults import Faults
+from mfi_drake.config.scenario import DepthCamera, Scenario, SphereSensor
+from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.flight.methods import Method, resolve_method
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
+from mfi_drake.systems.camera import add_depth_camera
+from mfi_drake.systems.control import AttitudePD, RotorMixer
+from mfi_drake.systems.faults import (
+    add_rotor_faults,
+    add_sensor_faults,
+    add_state_estimate,
+)
+from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
+from mfi_drake.systems.sensors import VehicleGeometry
+from mfi_drake.world.obstacles import register_obstacles
+
+# What the log holds, in order: (name, size, source system, its output port).
+LOG_LAYOUT: list[tuple[str, int, str, str]] = [
+    ("state", STATE_SIZE, "quadrotor", "state"),
+    ("obstacle", OBSTACLE_SIGNAL_SIZE, "sensor", "obstacle"),
+    ("obstacle_force_terms", 6, "navigator", "obstacle_force_terms"),
+    ("goal_force_terms", 9, "selector", "goal_force_terms"),
+    ("navigation_force", 3, "selector", "navigation_force"),
+    ("mode", 1, "selector", "mode"),
+    ("attitude_setpoint", 4, "attitude_pd", "attitude_setpoint"),
+    ("propeller_force", ROTORS, "mixer", "propeller_force"),
+    ("saturation", 1, "mixer", "saturation"),
+]
+
+
+@dataclass
+class FlightDiagram:
+    """The built diagram and the handles a simulation needs."""
+
+    diagram: Diagram
+    scenario: Scenario
+    vehicle: Vehicle
+    method: str  # its name in the registry, or a user field's MODULE:NAME
+    plant: QuadrotorPlant
+    scene_graph: SceneGraph
+    logger: VectorLogSink
+    sensor: object  # the system whose "obstacle" port the navigator reads
+
+    def log_slices(self) -> dict[str, slice]:
+        slices, start = {}, 0
+        for name, size, _, _ in LOG_LAYOUT:
+            slices[name] = slice(start, start + size)
+            start += size
+        return slices
+
+
+def make_plant(vehicle: Vehicle) -> QuadrotorPlant:
+    return QuadrotorPlant(
+        vehicle.mass,
+        vehicle.arm_length,
+        vehicle.inertia_matrix(),
+        vehicle.kF,
+        vehicle.kM,
+    )
+
+
+def add_sensor(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    scene_graph: SceneGraph,
+    plant: QuadrotorPlant,
+    geometry: VehicleGeometry,
+):
+    """Adds the scenario's sensor, named "sensor", whose output port
+    "obstacle" carries readings [r_o, seen] (see `sensing`, `camera`)."""
+    if isinstance(scenario.sensor, DepthCamera):
+        return add_depth_camera(
+            builder, scenario.sensor, scene_graph, plant.get_output_port(0), geometry
+        )
+    if not isinstance(scenario.sensor, SphereSensor):
+        raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
+    sensor = builder.AddNamedSystem(
+        "sensor", SphereSensorSystem(scenario.sensor.radius)
+    )
+    builder.Connect(scene_graph.get_query_output_port(), sensor.GetInputPort("query"))
+    builder.Connect(plant.get_output_port(0), sensor.GetInputPort("state"))
+    return sensor
+
+
+def connect_controller(
+    builder: DiagramBuilder,
+    plant: QuadrotorPlant,
+    obstacle_port,
+    navigator,
+    selector,
+    attitude,
+    mixer,
+    faults: Faults | None = None,
+) -> None:
+    """Closes the loop: plant state → navigator (its "obstacle" input from
+    `obstacle_port`, a sensor's or, in `analysis`, a constant source's) →
+    selector → attitude PD → mixer → plant, through the state-estimate error
+    and rotor faults of `faults` when they are on."""
+    faults = faults or Faults()
+    state = add_state_estimate(builder, faults, plant.get_output_port(0))
+    builder.Connect(state, navigator.GetInputPort("state"))
+    builder.Connect(obstacle_port, navigator.GetInputPort("obstacle"))
+    builder.Connect(state, selector.GetInputPort("state"))
+    builder.Connect(
+        navigator.GetOutputPort("obstacle_force"),
+        selector.GetInputPort("obstacle_force"),
+    )
+    builder.Connect(
+        selector.GetOutputPort("navigation_force"),
+        attitude.GetInputPort("navigation_force"),
+    )
+    builder.Connect(state, attitude.GetInputPort("state"))
+    builder.Connect(
+        attitude.GetOutputPort("thrust_torque"), mixer.GetInputPort("thrust_torque")
+    )
+    rotors = add_rotor_faults(
+        builder,
+        faults,
+        mixer.vehicle.hover_command,
+        mixer.GetOutputPort("propeller_force"),
+    )
+    builder.Connect(rotors, plant.get_input_port(0))
+
+
+def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightDiagram:
+    """Builds the closed loop of `scenario` flown by `method` (a registry
+    name, a user field's MODULE:NAME or callable, see `methods`)."""
+    method = resolve_method(method)
+    vehicle = VEHICLES[scenario.vehicle]
+    params = scenario.navigator
+    builder = DiagramBuilder()
+
+    scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
+    register_obstacles(scene_graph, scenario)
+    plant = builder.AddNamedSystem("quadrotor", make_plant(vehicle))
+    geometry = builder.AddNamedSystem(
+        "vehicle_geometry",
+        VehicleGeometry(scene_graph, vehicle.arm_length, vehicle.rotor_radius),
+    )
+    builder.Connect(plant.get_output_port(0), geometry.get_input_port(0))
+    builder.Connect(
+        geometry.get_output_port(0),
+        scene_graph.get_source_pose_port(geometry.source_id),
+    )
+
+    sensor = add_sensor(builder, scenario, scene_graph, plant, geometry)
+
+    navigator = builder.AddNamedSystem("navigator", method.navigator(scenario, vehicle))
+    selector = builder.AddNamedSystem("selector", method.goal_attraction(scenario))
+    attitude = builder.AddNamedSystem("attitude_pd", AttitudePD(vehicle, params))
+    mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
+    connect_controller(
+        builder,
+        plant,
+        add_sensor_faults(builder, scenario.faults, sensor.GetOutputPort("obstacle")),
+        navigator,
+        selector,
+        attitude,
+        mixer,
+        scenario.faults,
+    )
+
+    mux = builder.AddNamedSystem(
+        "log_mux", Multiplexer([size for _, size, _, _ in LOG_LAYOUT])
+    )
+    systems = {
+        s.get_name(): s for s in (plant, sensor, navigator, selector, attitude, mixer)
+    }
+    for i, (_, _, system_name, port_name) in enumerate(LOG_LAYOUT):
+        source = systems[system_name]
+        port = (
+            source.get_output_port(0)
+            if source is plant
+            else source.GetOutputPort(port_name)
+        )
+        builder.Connect(port, mux.get_input_port(i))
+    # publish_period 0: the sink records once per integrator step.
+    logger = LogVectorOutput(mux.get_output_port(0), builder, publish_period=0.0)
+    logger.set_name("logger")
+
+    if sensor.HasOutputPort("frames_rendered"):  # a camera counts its frames
+        builder.ExportOutput(sensor.GetOutputPort("frames_rendered"), "frames_rendered")
+
+    diagram = builder.Build()
+    diagram.set_name(f"mfi_drake[{scenario.name}, {method.name}]")
+    return FlightDiagram(
+        diagram=diagram,
+        scenario=scenario,
+        vehicle=vehicle,
+        method=method.name,
+        plant=plant,
+        scene_graph=scene_graph,
+        logger=logger,
+        sensor=sensor,
+    )

@@ -1,0 +1,150 @@
+"""The registry of navigation methods: MFI, the paper's baselines, and any
+user's own navigation field. Every command, study, figure and animation
+reads methods from here; a new built-in method is one entry of `METHODS`.
+
+A method is the two systems of `systems.navigation` that turn the state and
+the obstacle reading into F_n: a navigator and a goal attraction. The §V
+chain (attitude PD, mixer) is the same for every method.
+
+A user's field is a plain function `field(position, velocity,
+obstacle_points, goal) -> force` (see `UserFieldNavigator`), named on the
+command line as MODULE:NAME or passed to `simulate` as a callable.
+"""
+
+import importlib
+import os
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.vehicles import Vehicle
+from mfi_drake.systems.navigation import (
+    ApfNavigator,
+    GfNavigator,
+    GoalAttractionSelector,
+    MfiNavigator,
+    PassThroughGoal,
+    PotentialGoalAttraction,
+    UserFieldNavigator,
+)
+
+
+class MethodError(ValueError):
+    """A method that cannot be flown: an unknown name, or a MODULE:NAME spec
+    that cannot be imported, names nothing or names no function."""
+
+
+@dataclass(frozen=True)
+class Method:
+    name: str  # as the run JSON, the sweep records and the CLI name it
+    label: str  # in figures and tables
+    colour: str  # a matplotlib colour
+    navigator: Callable[[Scenario, Vehicle], object]  # the navigator system
+    goal_attraction: Callable[[Scenario], object]  # the goal-attraction system
+    parameters: str | None = None  # the Scenario field holding its gains
+
+
+def _goal(scenario: Scenario) -> np.ndarray:
+    return np.asarray(scenario.goal, float)
+
+
+METHODS: dict[str, Method] = {
+    "mfi": Method(
+        name="mfi",
+        label="MFI",
+        colour="tab:blue",
+        navigator=lambda s, vehicle: MfiNavigator(
+            s.navigator, _goal(s), vehicle.collision_radius
+        ),
+        goal_attraction=lambda s: GoalAttractionSelector(s.navigator, _goal(s)),
+        parameters="navigator",
+    ),
+    "apf": Method(
+        name="apf",
+        label="APF",
+        colour="tab:red",
+        navigator=lambda s, vehicle: ApfNavigator(
+            s.apf, _goal(s), vehicle.collision_radius
+        ),
+        goal_attraction=lambda s: PotentialGoalAttraction(s.apf.attraction, _goal(s)),
+        parameters="apf",
+    ),
+    "gf": Method(
+        name="gf",
+        label="GF",
+        colour="tab:green",
+        navigator=lambda s, vehicle: GfNavigator(
+            s.gf, _goal(s), vehicle.collision_radius
+        ),
+        goal_attraction=lambda s: PotentialGoalAttraction(s.gf.attraction, _goal(s)),
+        parameters="gf",
+    ),
+}
+
+# Colours of user methods, taken in turn by a stable hash of their name.
+USER_COLOURS = ("tab:purple", "tab:orange", "tab:brown", "tab:pink", "tab:olive")
+
+
+def appearance(name: str) -> tuple[str, str]:
+    """(label, colour) of a method named in a result, without importing a
+    user's module: a user method's label is the NAME of its MODULE:NAME."""
+    if name in METHODS:
+        return METHODS[name].label, METHODS[name].colour
+    return name.rsplit(":", 1)[-1], USER_COLOURS[sum(name.encode()) % len(USER_COLOURS)]
+
+
+def user_method(field: Callable, name: str) -> Method:
+    """A method that flies the user's navigation field `field`."""
+    label, colour = appearance(name)
+    return Method(
+        name=name,
+        label=label,
+        colour=colour,
+        navigator=lambda s, _: UserFieldNavigator(field, name, _goal(s)),
+        goal_attraction=lambda _: PassThroughGoal(),
+    )
+
+
+def import_field(spec: str) -> Callable:
+    """The function NAME of MODULE, for spec "MODULE:NAME", imported with
+    the current directory first on the import path (as `python -m` has it)
+    and PYTHONPATH after it. Raises MethodError naming the spec."""
+    module_name, _, attribute = spec.partition(":")
+    if not module_name or not attribute:
+        raise MethodError(f"{spec!r}: must be one of {sorted(METHODS)} or MODULE:NAME")
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    try:
+        module = importlib.import_module(module_name)
+    except Exception as e:  # ImportError, or anything the module raises
+        message = " ".join(str(e).split())
+        raise MethodError(
+            f"{spec!r}: cannot import {module_name!r} ({type(e).__name__}: {message})"
+        ) from None
+    field = module
+    for part in attribute.split("."):
+        if not hasattr(field, part):
+            raise MethodError(f"{spec!r}: {module_name!r} has no {attribute!r}")
+        field = getattr(field, part)
+    if not callable(field):
+        raise MethodError(f"{spec!r}: {attribute!r} is not callable")
+    return field
+
+
+def resolve_method(method: "str | Callable | Method") -> Method:
+    """The registry entry of `method`: a name of METHODS, a "MODULE:NAME"
+    spec of a user's field, a callable field, or a Method itself."""
+    if isinstance(method, Method):
+        return method
+    if isinstance(method, str):
+        if method in METHODS:
+            return METHODS[method]
+        return user_method(import_field(method), method)
+    if callable(method):
+        module = getattr(method, "__module__", None) or "<unknown>"
+        name = getattr(method, "__qualname__", None) or type(method).__name__
+        return user_method(method, f"{module}:{name}")
+    raise MethodError(f"{method!r}: not a method name, MODULE:NAME or a function")

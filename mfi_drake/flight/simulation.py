@@ -1,0 +1,164 @@
+"""Flying a scenario: `simulate` runs the diagram and returns a `Flight`
+(the log, arrays by name) with its metrics; `outcome` is the one place that
+says what a flight's result was."""
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+
+from mfi_drake.config.scenario import DepthCamera, Scenario
+from mfi_drake.flight.diagram import FlightDiagram, build_diagram
+from mfi_drake.flight.methods import Method
+from mfi_drake.maths.layout import POSITION, STATE_SIZE
+from mfi_drake.world.obstacles import obstacle_distances
+
+CLEARANCE_REACH = 2.0  # [m] see flight_metrics
+
+
+@dataclass
+class Flight:
+    """One simulated flight: the scenario, the log and the metrics."""
+
+    scenario: Scenario
+    method: str  # its registry name, or a user field's MODULE:NAME
+    sensor: str
+    collision_radius: float
+    times: np.ndarray
+    log: dict[str, np.ndarray]  # name -> (N, size) array, see diagram.LOG_LAYOUT
+    wall_time: float
+    cpu_time: float = 0.0  # process CPU time of the simulation [s]
+    integrator_steps: int = 0  # steps the integrator took
+    derivative_evaluations: int = 0  # its time-derivative evaluations
+    frames_rendered: int | None = None  # depth-camera frames (None: no camera)
+    metrics: dict = field(default_factory=dict)
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self.log["state"][:, POSITION]
+
+
+def simulate(scenario: Scenario, method: "str | Callable | Method" = "mfi") -> Flight:
+    """Builds the diagram of `scenario`, flies it for scenario.duration with the
+    scenario's SimulatorConfig and returns the logged flight and its metrics.
+
+    `method`: "mfi", "apf", "gf" (`methods.METHODS`), a user's navigation
+    field as "MODULE:NAME" or as the function itself (see `methods`)."""
+    return fly(build_diagram(scenario, method))
+
+
+OUTCOMES = ("success", "collision", "timeout")
+
+
+def outcome(metrics: dict) -> str:
+    """A flight's result: "collision" if its clearance went below zero at any
+    logged step (reached or not), else "success" if it ended within the goal
+    tolerance, else "timeout" (stuck, or too slow for the duration)."""
+    if metrics["collided"]:
+        return "collision"
+    return "success" if metrics["reached"] else "timeout"
+
+
+def simulator_at_start(diagram, plant, scenario: Scenario) -> Simulator:
+    """A Simulator of `diagram` with the scenario's SimulatorConfig, the
+    plant (a subsystem of `diagram`) at the scenario's start, at rest."""
+    simulator = Simulator(diagram)
+    ApplySimulatorConfig(scenario.simulator, simulator)
+    context = simulator.get_mutable_context()
+    # The integrator's accuracy is set by the config; the context's accuracy
+    # is what accuracy-aware computations (witness isolation) read.
+    context.SetAccuracy(scenario.simulator.accuracy)
+    x0 = np.zeros(STATE_SIZE)
+    x0[POSITION] = scenario.start
+    plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
+    return simulator
+
+
+def run_timed(simulator: Simulator, duration: float) -> tuple[float, float]:
+    """Initialize + AdvanceTo(duration); (wall time, process CPU time) [s]."""
+    start, start_cpu = time.perf_counter(), time.process_time()
+    simulator.Initialize()
+    simulator.AdvanceTo(duration)
+    return time.perf_counter() - start, time.process_time() - start_cpu
+
+
+def fly(flight: FlightDiagram) -> Flight:
+    """Simulates an already built diagram from the scenario's start at rest."""
+    scenario = flight.scenario
+    simulator = simulator_at_start(flight.diagram, flight.plant, scenario)
+    context = simulator.get_mutable_context()
+    wall_time, cpu_time = run_timed(simulator, scenario.duration)
+    integrator = simulator.get_integrator()
+    depth = isinstance(scenario.sensor, DepthCamera)
+    frames = None
+    if flight.diagram.HasOutputPort("frames_rendered"):
+        port = flight.diagram.GetOutputPort("frames_rendered")
+        frames = int(port.Eval(context)[0])
+    log = flight.logger.FindLog(context)
+    data = log.data().T
+    result = Flight(
+        scenario=scenario,
+        method=flight.method,
+        sensor="depth" if depth else "sphere",
+        collision_radius=flight.vehicle.collision_radius,
+        times=log.sample_times().copy(),
+        log={name: data[:, s] for name, s in flight.log_slices().items()},
+        wall_time=wall_time,
+        cpu_time=cpu_time,
+        integrator_steps=integrator.get_num_steps_taken(),
+        derivative_evaluations=integrator.get_num_derivative_evaluations(),
+        frames_rendered=frames,
+    )
+    result.metrics = flight_metrics(result)
+    return result
+
+
+def flight_metrics(flight: Flight) -> dict:
+    """The run's numbers (see the README for each definition)."""
+    scenario = flight.scenario
+    times, p = flight.times, flight.positions
+    goal = np.asarray(scenario.goal, float)
+    error = np.linalg.norm(p - goal, axis=1)
+    path_length = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+    if scenario.obstacles:
+        # Exact: a point with nothing within the reach is farther than any
+        # distance found. Only a flight that never came near anything needs
+        # the query against every obstacle.
+        distances = obstacle_distances(scenario, p, within=CLEARANCE_REACH)
+        if not np.isfinite(distances).any():
+            distances = obstacle_distances(scenario, p)
+        min_clearance = float(np.min(distances)) - flight.collision_radius
+    else:
+        min_clearance = float("inf")
+    tolerance = scenario.goal_tolerance
+    reached = bool(error[-1] <= tolerance)
+    convergence_time = None
+    if reached:
+        outside = np.nonzero(error > tolerance)[0]
+        convergence_time = float(times[outside[-1] + 1] if len(outside) else times[0])
+    collided = bool(min_clearance < 0.0)
+    sim_time = float(times[-1])
+    metrics = {
+        "scenario": scenario.name,
+        "method": flight.method,
+        "sensor": flight.sensor,
+        "vehicle": scenario.vehicle,
+        "reached": reached,
+        "collided": collided,
+        "success": reached and not collided,  # = outcome(...) == "success"
+        "min_clearance": min_clearance if np.isfinite(min_clearance) else None,
+        "path_length": path_length,
+        "final_error": float(error[-1]),
+        "convergence_time": convergence_time,
+        "sim_time": sim_time,
+        "wall_time": flight.wall_time,
+        "realtime_factor": sim_time / flight.wall_time,
+        "steps": int(len(times)),
+        "saturated_fraction": float(np.mean(flight.log["saturation"][:, 0] > 0)),
+    }
+    metrics["outcome"] = outcome(metrics)
+    if flight.frames_rendered is not None:
+        metrics["frames_rendered"] = flight.frames_rendered
+    return metrics

@@ -1,0 +1,240 @@
+"""The navigation field F_n of the paper's §IV, as plain numpy functions.
+
+All forces are in the world frame, in newtons. Every function takes and
+returns 3-vectors of float or AutoDiffXd (see `so3`), never Drake systems.
+
+Notation (docs/design.md): v velocity, l_a = v/|v|, r_o the vector from the robot
+centre to the closest obstacle point, n = r_o/|r_o|, r the distance from the
+robot's collision sphere to the obstacle (|r_o| minus the collision radius),
+r_g = p_g − p.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from mfi_drake.maths.layout import readings
+from mfi_drake.maths.so3 import (
+    TINY,
+    bisector_turn,
+    cross,
+    dot,
+    norm,
+    reference_axis,
+    rotation_from_reference,
+    rotation_vector,
+)
+
+if TYPE_CHECKING:  # annotations only: the maths layer needs no configuration
+    from mfi_drake.config.parameters import NavigatorParams
+
+E_X = np.array([1.0, 0.0, 0.0])
+E_Z = np.array([0.0, 0.0, 1.0])
+
+
+def _zero3(like) -> np.ndarray:
+    """A zero 3-vector of like's scalar type (AutoDiffXd zeros for AutoDiffXd)."""
+    if isinstance(like, np.ndarray) and like.dtype == np.float64:
+        return np.zeros(3)
+    return np.array([0.0 * like[0]] * 3)
+
+
+def heading(v: np.ndarray):
+    """(speed, l_a); l_a = 0 when the speed is below TINY (eq 12's l_a)."""
+    speed = norm(v)
+    if speed < TINY:
+        return speed, _zero3(v)
+    return speed, v / speed
+
+
+def fallback_tangent(n: np.ndarray, r_g: np.ndarray) -> np.ndarray:
+    """A deterministic unit tangent to the obstacle at the closest point.
+
+    Used when the robot heads straight at the obstacle and eq 11's current
+    vanishes. Preference: the goal direction projected onto the tangent plane
+    (go round on the goal's side); else horizontal, e_z × n (go round, not
+    over); else e_x × n (n vertical).
+    """
+    t = r_g - dot(r_g, n) * n
+    t_norm = norm(t)
+    if t_norm > 0.1 * norm(r_g) and t_norm > TINY:
+        return t / t_norm
+    t = cross(E_Z, n)
+    t_norm = norm(t)
+    if t_norm > 0.1:
+        return t / t_norm
+    t = cross(E_X, n)
+    return t / norm(t)
+
+
+def artificial_current(
+    l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray, blend: float
+) -> np.ndarray:
+    """Eq 11: l_o = l_a − (l_a·n) n, the heading projected on the surface.
+
+    Head-on (l_a·n > 0 and |l_o| < blend) the current is blended with the
+    deterministic `fallback_tangent` t, signed to agree with l_o:
+    l_o + (blend − |l_o|) t, which is never zero and equals eq 11 at
+    |l_o| = blend. Receding from the obstacle, eq 11 is used as it is.
+    """
+    along = dot(l_a, n)
+    l_o = l_a - along * n
+    size = norm(l_o)
+    if along > 0.0 and size < blend:
+        t = fallback_tangent(n, r_g)
+        if dot(l_o, t) < 0.0:
+            t = -t
+        l_o = l_o + (blend - size) * t
+    return l_o
+
+
+def boundary_following_field(
+    l_a: np.ndarray, l_o: np.ndarray, speed, r, c: float, r_l: float
+) -> np.ndarray:
+    """Eq 12–13: F = c · l_a × (l_o × l_a) · f, f = v/r if r < r_l else 0.
+
+    Perpendicular to l_a, so it does no work.
+    """
+    if r >= r_l:
+        return _zero3(l_a)
+    return cross(l_a, cross(l_o, l_a)) * (c * speed / r)
+
+
+def collision_avoidance_field(
+    l_a: np.ndarray, n: np.ndarray, l_o: np.ndarray, r, c_perp: float, r_b: float
+) -> np.ndarray:
+    """Eq 14–15: F_a = l_a × (n × l_o⊥) · f_a, l_o⊥ = −l_o,
+    f_a = c⊥ (1/r − 1/r_b) / r² if r < r_b else 0.
+
+    Perpendicular to l_a (no work); turns the heading away from the surface.
+    """
+    if r >= r_b:
+        return _zero3(l_a)
+    f_a = c_perp * (1.0 / r - 1.0 / r_b) / (r * r)
+    return cross(l_a, cross(l_o, n)) * f_a  # n × l_o⊥ = n × (−l_o) = l_o × n
+
+
+def obstacle_field(
+    v: np.ndarray,
+    r_o: np.ndarray,
+    seen,
+    r_g: np.ndarray,
+    collision_radius: float,
+    params: NavigatorParams,
+) -> tuple[np.ndarray, np.ndarray]:
+    """F_o = F + F_a (eq 11–15); returns (F, F_a).
+
+    Zero when nothing is seen (`seen` ≤ 0.5), when the robot is at rest, or
+    when the obstacle point coincides with the robot centre (n undefined).
+    r = |r_o| − collision_radius is floored at params.min_distance.
+    """
+    zero = _zero3(v)
+    if seen <= 0.5:
+        return zero, zero
+    distance = norm(r_o)
+    r = distance - collision_radius
+    # Beyond r_l the obstacle is beyond both ranges (r_b < r_l).
+    if distance < TINY or r >= params.r_l:
+        return zero, zero
+    speed, l_a = heading(v)
+    if speed < TINY:
+        return zero, zero
+    if r < params.min_distance:
+        r = params.min_distance + 0.0 * r
+    n = r_o / distance
+    l_o = artificial_current(l_a, n, r_g, params.tangent_blend)
+    F = boundary_following_field(l_a, l_o, speed, r, params.c, params.r_l)
+    F_a = collision_avoidance_field(l_a, n, l_o, r, params.c_perp, params.r_b)
+    return F, F_a
+
+
+def superposed(field, v, obstacle, r_g, collision_radius: float, params):
+    """The terms (A, B) of an obstacle field, `field(v, r_o, seen, r_g,
+    collision_radius, params)` (e.g. `obstacle_field`), summed over the
+    readings [r_o, seen] of the "obstacle" signal (see `layout`).
+
+    The fields of separate surface currents add: each obstacle contributes
+    eq 11–15 with its own closest point.
+    """
+    A = B = _zero3(v)
+    for r_o, seen in readings(obstacle):
+        if seen <= 0.5:  # unseen: its terms are zero; skip the call
+            continue
+        A_i, B_i = field(v, r_o, seen, r_g, collision_radius, params)
+        A, B = A + A_i, B + B_i
+    return A, B
+
+
+def goal_attraction_field(v: np.ndarray, r_g: np.ndarray, K_omega: float):
+    """Eq 16–18: F_gc = ω_ref × v with ω̂_g = −K_ω log(R_gᵀ R_v), ω_ref = R_g ω_g.
+
+    R_v and R_g are eq 16's rotations from r_ref to l_a and to r_g/|r_g|;
+    r_ref is chosen by `so3.reference_axis`: the bisector of l_a and l_g,
+    where eq 16–18 reduce to the closed form `so3.bisector_turn`, else a
+    fixed axis. Zero when v = 0 or r_g = 0. Perpendicular to v (no work).
+    """
+    speed, l_a = heading(v)
+    distance = norm(r_g)
+    if speed < TINY or distance < TINY:
+        return _zero3(v)
+    l_g = r_g / distance
+    turn = bisector_turn(l_a, l_g)
+    if turn is not None:
+        return cross(turn, v) * K_omega
+    r_ref = reference_axis(l_a, l_g)
+    R_v = rotation_from_reference(r_ref, l_a)
+    R_g = rotation_from_reference(r_ref, l_g)
+    omega_g = -K_omega * rotation_vector(R_g.T @ R_v)  # ω̂_g = −K_ω log(R_gᵀ R_v)
+    return cross(R_g @ omega_g, v)
+
+
+def speed_control_field(v: np.ndarray, K_v: float, v_d: float) -> np.ndarray:
+    """Eq 19: F_v = −K_v (|v| − v_d) l_a (zero at rest, where l_a is undefined)."""
+    speed, l_a = heading(v)
+    return -K_v * (speed - v_d) * l_a
+
+
+def terminal_pd_field(
+    p: np.ndarray, v: np.ndarray, goal: np.ndarray, params: NavigatorParams
+) -> np.ndarray:
+    """Eq 20: F_pd = −K_P (p − p_g) − K_D ṗ, its norm saturated at max_pd_force."""
+    F = -params.K_P * (p - goal) - params.K_D * v
+    size = norm(F)
+    if size > params.max_pd_force:
+        F = F * (params.max_pd_force / size)
+    return F
+
+
+# Eq 21's two modes.
+MODE_PD = 0
+MODE_CRUISE = 1
+
+
+def cruise_guard(p: np.ndarray, v: np.ndarray, goal: np.ndarray, params):
+    """≥ 0 where eq 21 may leave PD for cruise: v ≥ v_min and |r_g| ≥ r_gl + h."""
+    return min(
+        norm(v) - params.v_min,
+        norm(goal - p) - (params.r_gl + params.goal_hysteresis),
+    )
+
+
+def pd_guard(p: np.ndarray, v: np.ndarray, goal: np.ndarray, params):
+    """< 0 where eq 21 must leave cruise for PD: |r_g| < r_gl or v < v_stop."""
+    return min(norm(v) - params.v_stop, norm(goal - p) - params.r_gl)
+
+
+def goal_terms(
+    mode: int, p: np.ndarray, v: np.ndarray, goal: np.ndarray, params
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The goal part of eq 21 for `mode`, as (F_gc, F_v, F_pd); the inactive
+    terms are zero."""
+    zero = _zero3(v)
+    if mode == MODE_CRUISE:
+        return (
+            goal_attraction_field(v, goal - p, params.K_omega),
+            speed_control_field(v, params.K_v, params.v_d),
+            zero,
+        )
+    return zero, zero, terminal_pd_field(p, v, goal, params)

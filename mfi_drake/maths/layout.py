@@ -1,0 +1,52 @@
+"""The layouts of the vectors that travel between systems, in one place.
+
+State: Drake's QuadrotorPlant state (x, y, z, roll, pitch, yaw, ẋ, ẏ, ż,
+roll̇, pitcḣ, yaẇ), world frame, z up, R = Rz(yaw) Ry(pitch) Rx(roll).
+
+Obstacle reading: what every sensor sends the navigator. OBSTACLE_COUNT
+readings [r_o (3), seen], nearest first; r_o is the vector from the vehicle
+centre to an obstacle's closest point (world frame, m) and seen is 1.0 when
+that obstacle is in range, else 0.0 (with r_o = 0).
+"""
+
+import numpy as np
+
+STATE_SIZE = 12
+POSITION = slice(0, 3)
+ATTITUDE = slice(3, 6)  # roll, pitch, yaw [rad]
+VELOCITY = slice(6, 9)
+ANGULAR_RATE = slice(9, 12)  # roll, pitch, yaw rates [rad/s]
+
+ROTORS = 4
+
+OBSTACLE_COUNT = 3  # obstacles a reading reports, nearest first
+READING_SIZE = 4  # [r_o (3), seen]
+OBSTACLE_SIGNAL_SIZE = READING_SIZE * OBSTACLE_COUNT
+
+
+def position_velocity(x):
+    """(p, v) of a state vector."""
+    return x[POSITION], x[VELOCITY]
+
+
+def obstacle_signal(points) -> np.ndarray:
+    """The "obstacle" signal from up to OBSTACLE_COUNT vectors r_o, nearest
+    first; the readings not filled are "nothing seen"."""
+    out = np.zeros(OBSTACLE_SIGNAL_SIZE)
+    for i, r_o in enumerate(points[:OBSTACLE_COUNT]):
+        out[READING_SIZE * i : READING_SIZE * i + 3] = r_o
+        out[READING_SIZE * i + 3] = 1.0
+    return out
+
+
+def readings(signal):
+    """The (r_o, seen) pairs of an "obstacle" signal, nearest first."""
+    return [
+        (signal[i : i + 3], signal[i + 3]) for i in range(0, len(signal), READING_SIZE)
+    ]
+
+
+def seen_points(signal) -> np.ndarray:
+    """(k, 3): the r_o of the readings that see an obstacle, nearest first."""
+    points = [r_o for r_o, seen in readings(signal) if seen > 0.5]
+    return np.array(points, dtype=float).reshape(-1, 3)

@@ -1,0 +1,194 @@
+"""From the navigation force F_n to rotor commands (the paper's §V).
+
+Plain numpy on float or AutoDiffXd arrays, like `fields`. Drake's
+QuadrotorPlant conventions (see `layout`): state (x, y, z, roll, pitch, yaw,
+ẋ, ẏ, ż, roll̇, pitcḣ, yaẇ), R = Rz(yaw) Ry(pitch) Rx(roll); +pitch tilts the
+thrust toward +x, +roll toward −y.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from mfi_drake.maths.so3 import cos, entries, floor, sin, sqrt
+
+if TYPE_CHECKING:  # annotations only: the maths layer needs no configuration
+    from mfi_drake.config.parameters import NavigatorParams
+    from mfi_drake.config.vehicles import Vehicle
+
+GRAVITY = 9.81  # m/s², as in Drake's QuadrotorPlant
+
+
+def attitude_gains(
+    vehicle: Vehicle, params: NavigatorParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """K_Pθ and K_Dθ of eq 25 per axis (roll, pitch, yaw) [N·m/rad, N·m·s/rad].
+
+    Chosen as J ω_n² and 2 ζ ω_n J so that each axis is a second-order loop
+    with the natural frequency and damping of `params`, whatever the inertia.
+    """
+    J = np.asarray(vehicle.inertia)
+    w = params.attitude_natural_frequency
+    return J * w * w, 2.0 * params.attitude_damping_ratio * w * J
+
+
+def attitude_setpoint(
+    F_n: np.ndarray,
+    attitude: np.ndarray,
+    yaw_desired,
+    vehicle: Vehicle,
+    params: NavigatorParams,
+) -> np.ndarray:
+    """Eq 21 (after) – 24: [T, roll_d, pitch_d, yaw_d] from F_n.
+
+    F_Q = F_n + m g e_z, T = F_Q·e_z (divided by ℓ = cos roll · cos pitch
+    when `tilt_compensation`, so the vertical force is F_Qz at any tilt; ℓ
+    is held at cos max_tilt beyond the tilt limit). The planar force
+    f = K_Pv [F_nx, F_ny] (eq 22) is expressed in the yaw frame and turned
+    into small-angle tilts (eq 23–24) with Drake's signs: pitch_d = f_x'/T,
+    roll_d = −f_y'/T.
+
+    The vehicle can deliver only thrusts T ≥ min_thrust_fraction·m·g and
+    tilts |f|/T ≤ max_tilt. When F_n asks for more, all of F_n is scaled
+    by the largest k ∈ (0, 1] it can deliver. Limiting the tilt or the
+    thrust alone would deliver one part of F_n in full and the other in
+    part: the delivered force would turn away from F_n (towards free fall
+    when F_n pulls down), and the terms of F_n that do no work (⟂ v,
+    eq 11–15) would start doing work. Scaling keeps F_n's direction:
+    T(k) = (k F_z + m g)/ℓ ≥ T_min gives k ≤ (m g − T_min ℓ)/(−F_z), and
+    K_Pv k |F_h| / T(k) ≤ max_tilt gives
+    k ≤ max_tilt m g / (K_Pv |F_h| ℓ − max_tilt F_z).
+    """
+    roll, pitch, yaw = entries(attitude)
+    F_x, F_y, F_z = entries(F_n)
+    weight = vehicle.mass * GRAVITY
+    level = 1.0
+    if params.tilt_compensation:
+        level = cos(roll) * cos(pitch)
+        if level < cos(params.max_tilt):  # also keeps T > 0 upside down
+            level = cos(params.max_tilt) + 0.0 * level
+    T_min = params.min_thrust_fraction * weight
+    k = 1.0
+    if F_z + weight < T_min * level:
+        k = (weight - T_min * level) / (-F_z)
+    f_h = params.K_Pv * sqrt(F_x * F_x + F_y * F_y)
+    if f_h * level * k > params.max_tilt * (k * F_z + weight):
+        k = params.max_tilt * weight / (f_h * level - params.max_tilt * F_z)
+    T = (k * F_z + weight) / level
+    f_x = params.K_Pv * k * F_x
+    f_y = params.K_Pv * k * F_y
+    c, s = cos(yaw), sin(yaw)
+    pitch_d = (c * f_x + s * f_y) / T
+    roll_d = -(-s * f_x + c * f_y) / T
+    return np.array([T, roll_d, pitch_d, yaw_desired])
+
+
+def wrap_angle(angle):
+    """Angle wrapped to [−π, π)."""
+    return angle - 2.0 * math.pi * floor((angle + math.pi) / (2.0 * math.pi))
+
+
+def desired_yaw(v: np.ndarray, yaw, params: NavigatorParams):
+    """θ_y,d of eq 25: 0 as in the paper, or with `yaw_follows_motion` the
+    direction of horizontal motion atan2(v_y, v_x), blended in from the
+    current yaw as the horizontal speed rises from v_stop to v_min (eq 21's
+    "v = 0" and "v ≠ 0"), so the setpoint has no jump.
+    """
+    if not params.yaw_follows_motion:
+        return 0.0 * yaw
+    speed_sq = v[0] * v[0] + v[1] * v[1]
+    if speed_sq <= params.v_stop**2:
+        return yaw
+    error = wrap_angle(np.arctan2(v[1], v[0]) - yaw)
+    if speed_sq >= params.v_min**2:
+        return yaw + error
+    weight = (np.sqrt(speed_sq) - params.v_stop) / (params.v_min - params.v_stop)
+    return yaw + weight * error
+
+
+def attitude_pd_torque(
+    attitude: np.ndarray,
+    attitude_rates: np.ndarray,
+    desired: np.ndarray,
+    K_P: np.ndarray,
+    K_D: np.ndarray,
+) -> np.ndarray:
+    """Eq 25: τ = −K_Pθ (θ − θ_d) − K_Dθ θ̇ for roll, pitch and yaw.
+
+    Drake's plant gives the Euler-angle rates θ̇ directly, so the paper's
+    small-angle approximation θ̇ ≈ ω is not needed. The yaw error is wrapped.
+    """
+    # On Python scalars: cheaper than numpy on 3-vectors.
+    roll, pitch, yaw = entries(attitude)
+    roll_d, pitch_d, yaw_d = entries(desired)
+    error = (roll - roll_d, pitch - pitch_d, wrap_angle(yaw - yaw_d))
+    rates = entries(attitude_rates)
+    return np.array(
+        [
+            -(P * e + D * r)
+            for P, e, D, r in zip(entries(K_P), error, entries(K_D), rates, strict=True)
+        ]
+    )
+
+
+def mixer_matrix(vehicle: Vehicle) -> np.ndarray:
+    """D of eq 8 for Drake's rotor layout: [T, τx, τy, τz] = D u."""
+    kF, kM, L = vehicle.kF, vehicle.kM, vehicle.arm_length
+    return np.array(
+        [
+            [kF, kF, kF, kF],
+            [0.0, L * kF, 0.0, -L * kF],
+            [-L * kF, 0.0, L * kF, 0.0],
+            [kM, -kM, kM, -kM],
+        ]
+    )
+
+
+def mix(thrust_torque: np.ndarray, D_inv, u_max: float):
+    """Eq 8 inverted, u = D⁻¹ Γ, kept inside the rotor limits [0, u_max]
+    (D_inv: D⁻¹ as an array or as nested lists, which are cheaper to read).
+
+    Plain per-rotor clipping would sacrifice roll/pitch torque, and a
+    quadcopter that loses attitude authority tumbles. So the limits are met
+    by giving things up in order of importance:
+    1. roll/pitch torque is kept; if its spread alone exceeds u_max it is
+       scaled down to fit;
+    2. the collective thrust is moved into the range the torques leave;
+    3. yaw torque gets what room is left (scaled by s ∈ [0, 1]).
+    Returns (u, number of rotors left at a limit when anything was given up).
+    """
+    # Per-rotor lists of Python scalars: cheaper than 4-element arrays.
+    T, tau_x, tau_y, tau_z = entries(thrust_torque)
+    D = entries(D_inv)
+    roll_pitch = [row[1] * tau_x + row[2] * tau_y for row in D]
+    yaw = [row[3] * tau_z for row in D]
+    limited = False
+    low, high = min(roll_pitch), max(roll_pitch)
+    if high - low > u_max:
+        scale = u_max / (high - low)
+        roll_pitch = [x * scale for x in roll_pitch]
+        low, high = low * scale, high * scale
+        limited = True
+    collective = D[0][0] * T  # every rotor carries a quarter of T
+    if collective < -low:
+        collective, limited = -low + 0.0 * collective, True
+    elif collective > u_max - high:
+        collective, limited = u_max - high + 0.0 * collective, True
+    u = [collective + x for x in roll_pitch]
+    s = 1.0
+    for u_i, y_i in zip(u, yaw, strict=True):
+        if y_i > 0.0 and u_i + y_i > u_max:
+            s = min(s, (u_max - u_i) / y_i)
+        elif y_i < 0.0 and u_i + y_i < 0.0:
+            s = min(s, -u_i / y_i)
+    if s < 1.0:
+        limited = True
+        s = max(s, 0.0)
+    u = np.array([u_i + s * y_i for u_i, y_i in zip(u, yaw, strict=True)])
+    if not limited:
+        return u, 0
+    at_limit = sum(1 for u_i in u if u_i <= 1e-9 * u_max or u_i >= u_max * (1 - 1e-9))
+    return u, max(at_limit, 1)

@@ -1,0 +1,465 @@
+"""The Monte Carlo benchmark: every method flown on N random fields per
+density (`generator`), on Dask distributed, with confidence intervals.
+
+Flow: the client generates the fields (seeded, cheap), submits one reference
+task per field (`field_reference`, the shortest path of `reference_path`)
+and one flight task per field and method (`fly_field`). Each task carries
+only the scenario as YAML text (plus the method's name or MODULE:NAME and
+the reference numbers) and builds its own diagram in its worker, since
+Drake systems do not pickle; a user's field is imported there by name.
+As each flight finishes, the client appends its record to
+DIR/results.jsonl (one complete line, flushed and fsynced) and, if the
+flight failed, writes its scenario as a replayable YAML under
+DIR/failures/. A rerun with the same arguments reads the file and skips
+every (variant, sensor, density, seed, index, method) already there.
+
+Outcomes: success (reached and no collision), collision (clearance < 0 at
+any logged step, reached or not), timeout (neither: stuck or too slow within
+the scenario's duration), error (the simulation raised; message recorded).
+Path ratio = flown path length / reference path length, over successful
+flights only. Rates carry 95 % Wilson intervals; the median path ratio a
+95 % distribution-free interval from order statistics.
+
+The task payload is the scenario itself, so a sweep can fly modified
+scenarios: `run_sweep(..., modify=f, variant="name")` applies f to every
+generated field on the client (e.g. switching on a `faults` block) and
+keys the records by `variant` too.
+"""
+
+import contextlib
+import dataclasses
+import json
+import logging
+import math
+import os
+import sys
+import time
+import zlib
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field, fields, replace
+from typing import NamedTuple
+
+import numpy as np
+
+from mfi_drake.config.faults import Faults
+from mfi_drake.config.scenario import (
+    DepthCamera,
+    Scenario,
+    SphereSensor,
+    scenario_from_yaml,
+    scenario_to_yaml,
+)
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.files import write_json, write_text
+from mfi_drake.flight.methods import METHODS
+from mfi_drake.flight.simulation import OUTCOMES as FLIGHT_OUTCOMES
+from mfi_drake.flight.simulation import outcome, simulate
+from mfi_drake.world import generator
+from mfi_drake.world.reference_path import Clearance, reference_path
+from mfi_drake.world.validation import validate_scenario
+
+Z_95 = 1.959964  # two-sided 95 % normal quantile
+SENSORS = {"sphere": SphereSensor, "depth": DepthCamera}
+
+
+class FlightKey(NamedTuple):
+    """What identifies a flight in results.jsonl."""
+
+    variant: str
+    sensor: str
+    density: float
+    seed: int
+    index: int
+    method: str
+
+    @property
+    def field(self) -> tuple:
+        """The field's part of the key (all but the method)."""
+        return self[:5]
+
+
+KEY_FIELDS = FlightKey._fields
+OUTCOMES = (*FLIGHT_OUTCOMES, "error")  # error: the simulation raised
+
+
+@dataclass
+class SweepConfig:
+    n: int = 30  # fields per density
+    seed: int = 0
+    methods: list[str] = field(default_factory=lambda: list(METHODS))
+    densities: list[float] = field(
+        default_factory=lambda: [generator.DEFAULT_DENSITY]
+    )  # obstacles per m³ (generator.Workspace)
+    sensor: str = "sphere"  # a key of SENSORS
+    out: str = "out/sweep"
+    variant: str = ""  # names the `modify` applied to every field ("" = none)
+
+    def flight_keys(self) -> list[FlightKey]:
+        return [
+            FlightKey(self.variant, self.sensor, density, self.seed, index, method)
+            for density in self.densities
+            for index in range(self.n)
+            for method in self.methods
+        ]
+
+
+# --- the tasks (run in the workers) -------------------------------------------
+def field_reference(scenario_yaml: str) -> dict:
+    """The field's reference numbers: the shortest path's length, the straight
+    start–goal length and the fraction of that line inside grown obstacles."""
+    scenario = scenario_from_yaml(scenario_yaml)
+    start, goal = np.asarray(scenario.start), np.asarray(scenario.goal)
+    radius = VEHICLES[scenario.vehicle].collision_radius
+    try:
+        length = reference_path(scenario).length
+    except ValueError:  # no path in the grid
+        length = None
+    return {
+        "reference_length": length,
+        "straight_length": float(np.linalg.norm(goal - start)),
+        "blocked_fraction": Clearance(scenario, radius).blocked_fraction(
+            start, goal, 0.02
+        ),
+    }
+
+
+def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
+    """Flies the scenario with `method` (a registry name or MODULE:NAME);
+    the record's outcome and numbers."""
+    scenario = scenario_from_yaml(scenario_yaml)
+    record = {"scenario": scenario.name, "obstacles": len(scenario.obstacles)}
+    record.update(reference)
+    try:
+        m = simulate(scenario, method).metrics
+    except Exception as e:  # a failed flight is a result, not a crash of the sweep
+        message = " ".join(str(e).split())[:300]
+        return record | {"outcome": "error", "error": f"{type(e).__name__}: {message}"}
+    ratio = None
+    if reference["reference_length"]:
+        ratio = m["path_length"] / reference["reference_length"]
+    keep = ["reached", "collided", "path_length", "convergence_time"]
+    keep += ["min_clearance", "final_error", "sim_time", "wall_time", "steps"]
+    result = {"outcome": outcome(m), "path_ratio": ratio}
+    return record | result | {k: m[k] for k in keep}
+
+
+# --- results file ---------------------------------------------------------------
+def record_key(record: dict) -> FlightKey:
+    return FlightKey(*(record[k] for k in KEY_FIELDS))
+
+
+def read_results(path: str) -> list[dict]:
+    """The complete records in `path`; a trailing partial line (a kill in the
+    middle of a write) is cut off the file."""
+    if not os.path.exists(path):
+        return []
+    with open(path, "rb") as f:
+        data = f.read()
+    end = data.rfind(b"\n") + 1
+    if end < len(data):
+        os.truncate(path, end)
+    return [json.loads(line) for line in data[:end].splitlines() if line.strip()]
+
+
+def append_record(f, record: dict) -> None:
+    """One complete line, on disk before this returns."""
+    f.write(json.dumps(record, allow_nan=False) + "\n")
+    f.flush()
+    os.fsync(f.fileno())
+
+
+# --- statistics -----------------------------------------------------------------
+def wilson_interval(k: int, n: int, z: float = Z_95) -> list[float] | None:
+    """Wilson score interval of a binomial proportion k/n."""
+    if n == 0:
+        return None
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    # min/max: at k = 0 or n rounding may put the end a hair inside p.
+    return [max(0.0, min(p, centre - half)), min(1.0, max(p, centre + half))]
+
+
+def median_interval(values, z: float = Z_95) -> list[float] | None:
+    """Distribution-free ~95 % interval of the median: the order statistics of
+    ranks n/2 ∓ z√n/2 (normal approximation of the binomial ranks)."""
+    x = np.sort(np.asarray(values, float))
+    n = len(x)
+    if n == 0:
+        return None
+    lo = max(1, math.floor(n / 2 - z * math.sqrt(n) / 2))
+    hi = min(n, math.ceil(1 + n / 2 + z * math.sqrt(n) / 2))
+    return [float(x[lo - 1]), float(x[hi - 1])]
+
+
+def _median(values) -> float | None:
+    return float(np.median(values)) if len(values) else None
+
+
+def group_stats(records: list[dict]) -> dict:
+    """Rates with intervals and the path-ratio and convergence statistics."""
+    n = len(records)
+    out: dict = {"n": n}
+    for kind in OUTCOMES:
+        k = sum(r["outcome"] == kind for r in records)
+        out[f"{kind}_rate"] = k / n if n else None
+        out[f"{kind}_rate_ci95"] = wilson_interval(k, n)
+    ok = [r for r in records if r["outcome"] == "success"]
+    ratios = [r["path_ratio"] for r in ok if r["path_ratio"] is not None]
+    out["median_path_ratio"] = _median(ratios)
+    out["median_path_ratio_ci95"] = median_interval(ratios)
+    out["p90_path_ratio"] = float(np.percentile(ratios, 90)) if ratios else None
+    out["median_convergence_time"] = _median([r["convergence_time"] for r in ok])
+    refs = [
+        r["reference_length"] / r["straight_length"]
+        for r in records
+        if r["reference_length"]
+    ]
+    out["median_reference_detour"] = _median(refs)
+    blocked = [r["blocked_fraction"] for r in records]
+    out["line_blocked_fields"] = float(np.mean(np.array(blocked) > 0)) if n else None
+    out["mean_blocked_fraction"] = float(np.mean(blocked)) if n else None
+    return out
+
+
+def summarize(config: SweepConfig, records: list[dict]) -> dict:
+    """summary.json: per method, all densities pooled and by density."""
+    wanted = set(config.flight_keys())
+    records = [r for r in records if record_key(r) in wanted]
+    methods = {}
+    for method in config.methods:
+        mine = [r for r in records if r["method"] == method]
+        by_density = {
+            f"{d:g}": group_stats([r for r in mine if r["density"] == d])
+            for d in config.densities
+        }
+        methods[method] = group_stats(mine) | {"by_density": by_density}
+    return {
+        "config": dataclasses.asdict(config),
+        "workspace": dataclasses.asdict(generator.DEFAULT_WORKSPACE),
+        "duration": generator.DEFAULT_DURATION,
+        "flights": len(records),
+        "methods": methods,
+    }
+
+
+def _rate(stats: dict, outcome: str) -> str:
+    rate, ci = stats[f"{outcome}_rate"], stats[f"{outcome}_rate_ci95"]
+    if rate is None:
+        return "–"
+    return f"{rate:.2f} [{ci[0]:.2f}, {ci[1]:.2f}]"
+
+
+def _num(value, digits: int = 2) -> str:
+    return "–" if value is None else f"{value:.{digits}f}"
+
+
+def summary_table(summary: dict) -> str:
+    """A Markdown table: one row per method and density."""
+    lines = [
+        "| method | density [1/m³] | flights | success [95% CI] | collision [95% CI] "
+        "| timeout [95% CI] | median path ratio [95% CI] | p90 path ratio "
+        "| median convergence time [s] |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for method, pooled in summary["methods"].items():
+        for density, s in pooled["by_density"].items():
+            ci = s["median_path_ratio_ci95"]
+            median = _num(s["median_path_ratio"], 3)
+            if ci:
+                median += f" [{ci[0]:.3f}, {ci[1]:.3f}]"
+            errors = (
+                f" ({s['error_rate'] * s['n']:.0f} errors)" if s["error_rate"] else ""
+            )
+            lines.append(
+                f"| {method} | {density} | {s['n']}{errors} | {_rate(s, 'success')} "
+                f"| {_rate(s, 'collision')} | {_rate(s, 'timeout')} | {median} "
+                f"| {_num(s['p90_path_ratio'], 3)} "
+                f"| {_num(s['median_convergence_time'], 1)} |"
+            )
+    return "\n".join(lines)
+
+
+# --- the run ----------------------------------------------------------------------
+class Progress:
+    """A text progress bar on stderr (a line per 10 % when not a terminal)."""
+
+    def __init__(self, total: int, stream=sys.stderr):
+        self.total, self.done, self.stream = total, 0, stream
+        self.start = time.monotonic()
+        self._tty = stream.isatty()
+        self._shown = -1
+
+    def step(self, note: str = "") -> None:
+        self.done += 1
+        tenth = 10 * self.done // max(self.total, 1)
+        if not self._tty and tenth == self._shown and self.done < self.total:
+            return
+        self._shown = tenth
+        elapsed = time.monotonic() - self.start
+        eta = elapsed / self.done * (self.total - self.done)
+        filled = 30 * self.done // max(self.total, 1)
+        line = (
+            f"[{'#' * filled}{'.' * (30 - filled)}] {self.done}/{self.total} flights, "
+            f"{elapsed:.0f} s, ~{eta:.0f} s left {note}"
+        )
+        end = "\r" if self._tty and self.done < self.total else "\n"
+        self.stream.write(("\r" if self._tty else "") + line + end)
+        self.stream.flush()
+
+
+@dataclass
+class SweepRun:
+    summary: dict
+    ran: int  # flights flown now
+    skipped: int  # flights found done in results.jsonl
+    lost: list[str]  # flights the cluster could not run (rerun to retry)
+
+
+def _failure_path(config: SweepConfig, key: FlightKey, scenario: Scenario) -> str:
+    """failures/[variant_][sensor_]method_field.yaml (the default sphere sensor
+    and no variant leave their part out)."""
+    parts = [key.variant, "" if key.sensor == "sphere" else key.sensor, key.method]
+    name = "_".join([p for p in parts if p] + [scenario.name])
+    return os.path.join(config.out, "failures", f"{name}.yaml")
+
+
+@contextlib.contextmanager
+def dask_client(workers: int, scheduler: str | None) -> Iterator:
+    """A Dask client of the cluster at `scheduler`, else of a LocalCluster of
+    `workers` single-threaded worker processes; both closed on exit."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        with Client(scheduler, timeout=10) as client:
+            yield client
+        return
+    with (
+        LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",  # a free port: no clash with other clusters
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        yield client
+
+
+def make_field(config: SweepConfig, density: float, index: int) -> Scenario:
+    return generator.random_field(
+        config.seed,
+        index,
+        density,
+        os.path.join(config.out, "fields"),
+        sensor=SENSORS[config.sensor](),
+    )
+
+
+def run_sweep(
+    config: SweepConfig,
+    client,
+    modify: Callable[[Scenario], Scenario] | None = None,
+    progress_stream=sys.stderr,
+) -> SweepRun:
+    """Flies every flight of `config` not yet in DIR/results.jsonl on the
+    Dask `client`, then writes DIR/summary.json and DIR/table.md (the
+    command draws DIR/sweep.png from the summary). Raises ScenarioError if
+    the first field cannot be flown (e.g. a sensor the diagram does not
+    support)."""
+    from distributed import as_completed
+
+    os.makedirs(config.out, exist_ok=True)
+    results_path = os.path.join(config.out, "results.jsonl")
+    records = read_results(results_path)
+    done = {record_key(r) for r in records}
+    todo = [k for k in config.flight_keys() if k not in done]
+    skipped = len(config.flight_keys()) - len(todo)
+    known = {
+        record_key(r).field: {
+            k: r[k] for k in ("reference_length", "straight_length", "blocked_fraction")
+        }
+        for r in records
+    }
+    fields: dict[tuple, Scenario] = {}
+    futures = {}
+    for key in todo:
+        field_key = key.field
+        if field_key not in fields:
+            scenario = make_field(config, key.density, key.index)
+            if modify is not None:
+                scenario = modify(scenario)
+            if not fields:
+                validate_scenario(scenario, scenario.name)
+            fields[field_key] = scenario
+            if field_key not in known:
+                known[field_key] = client.submit(
+                    field_reference,
+                    scenario_to_yaml(scenario),
+                    key=f"reference-{scenario.name}-{key.sensor}-{key.variant}",
+                )
+        scenario = fields[field_key]
+        future = client.submit(
+            fly_field,
+            scenario_to_yaml(scenario),
+            key.method,
+            known[field_key],
+            key=f"flight-{key.method}-{scenario.name}-{key.sensor}-{key.variant}",
+        )
+        futures[future] = key
+    progress = Progress(len(futures), progress_stream)
+    lost = []
+    with open(results_path, "a") as f:
+        for future in as_completed(futures):
+            key = futures[future]
+            try:
+                result = future.result()
+            except Exception as e:  # the cluster lost it (a killed worker, ...)
+                lost.append(f"{key}: {type(e).__name__}: {str(e)[:200]}")
+                progress.step("(lost)")
+                continue
+            record = key._asdict() | result
+            append_record(f, record)
+            records.append(record)
+            if record["outcome"] != "success":
+                path = _failure_path(config, key, fields[key.field])
+                generator.write_scenario(
+                    fields[key.field],
+                    path,
+                    header=(
+                        f"# {record['outcome']} of {key.method} in the sweep "
+                        f"(seed {key.seed}, field {key.index}, density "
+                        f"{key.density:g}, {key.sensor} sensor"
+                        f"{', variant ' + key.variant if key.variant else ''}).\n"
+                        f"# Replay: mfi-drake run {os.path.basename(path)} "
+                        f"--method {key.method}\n"
+                    ),
+                )
+            progress.step(f"({record['outcome']}: {key.method} {record['scenario']})")
+            del futures[future]
+    summary = summarize(config, records)
+    write_json(os.path.join(config.out, "summary.json"), summary)
+    write_text(os.path.join(config.out, "table.md"), summary_table(summary) + "\n")
+    return SweepRun(
+        summary=summary, ran=len(todo) - len(lost), skipped=skipped, lost=lost
+    )
+
+
+# --- faults flown on every field ------------------------------------------------
+def fault_variant(faults: Faults) -> str:
+    """A name for a sweep variant: the fields that differ from the defaults,
+    as "field=value" joined by commas ("" for no faults)."""
+    default = Faults()
+    return ",".join(
+        f"{f.name}={getattr(faults, f.name)!r}"
+        for f in fields(faults)
+        if getattr(faults, f.name) != getattr(default, f.name)
+    )
+
+
+def with_faults(scenario, faults: Faults):
+    """A copy of `scenario` with `faults`, the seed offset by a CRC of the
+    scenario's name so that the fields of a sweep draw independent noise."""
+    seed = faults.seed + zlib.crc32(scenario.name.encode())
+    return replace(scenario, faults=replace(faults, seed=seed))

@@ -1,0 +1,498 @@
+"""The navigation LeafSystems: thin adapters from named ports to the fields
+of `maths.fields` (MFI, eq 11–21) and `maths.baselines` (APF, GF), and to a
+user's own field.
+
+A method is two systems with the same ports whatever the method:
+a navigator ("state", "obstacle" → "obstacle_force" F_o, 3, and
+"obstacle_force_terms", 6) and a goal attraction ("state", "obstacle_force"
+→ "navigation_force" F_n, 3, "goal_force_terms", 9, "mode", 1).
+
+What the 6 obstacle terms hold: MFI [F, F_a] (eq 12, eq 14); APF [F_rep, 0];
+GF [S ṗ, F_rep]; a user field [F_n, 0]. The 9 goal terms: MFI [F_gc, F_v,
+F_pd]; baselines [0, 0, F_att] with F_att = −∇U_att − k_d ṗ; a user field 0.
+
+The MFI and baseline systems are templated on the scalar type with
+`TemplateSystem.define` so that a diagram holding them converts to
+AutoDiffXd for `Linearize`. Outputs declare narrow prerequisites so the
+builder need not convert to symbolic form to look for algebraic loops. The
+float systems keep their last result (`LastResult`), so the evaluation that
+repeats the logger's at the start of every integrator step is a lookup; the
+outputs that share a computation read it from there too. Every system
+copies its parameters at construction: changing a parameter object later
+changes no built diagram.
+"""
+
+import copy
+
+import numpy as np
+from pydrake.systems.framework import (
+    LeafSystem,
+    LeafSystem_,
+    UnrestrictedUpdateEvent_,
+    WitnessFunctionDirection,
+)
+from pydrake.systems.scalar_conversion import TemplateSystem
+
+from mfi_drake.maths import baselines, fields
+from mfi_drake.maths.layout import (
+    OBSTACLE_SIGNAL_SIZE,
+    STATE_SIZE,
+    position_velocity,
+    seen_points,
+)
+from mfi_drake.systems.last_result import LastResult
+
+
+@TemplateSystem.define("ObstacleNavigator_")
+def ObstacleNavigator_(T):
+    class Impl(LeafSystem_[T]):
+        """An obstacle field F_o = A + B as a system, its two terms (A, B)
+        given by `field(v, r_o, seen, r_g, collision_radius, params)` (for MFI
+        `fields.obstacle_field`: A = F, B = F_a of eq 11–15), summed over the
+        obstacles of the reading (`fields.superposed`).
+
+        The paper uses the closest obstacle point only. Its fields are those
+        of currents on the obstacle surfaces, and fields of separate currents
+        add, so the terms of the nearest few obstacles are summed. With the
+        closest point alone, an obstacle hidden behind the one being followed
+        appears head-on within turning distance, and between two obstacles
+        the closest point jumps from side to side, so F_o flips with it.
+
+        .. pydrake_system::
+
+            name: ObstacleNavigator
+            input_ports:
+            - state
+            - obstacle
+            output_ports:
+            - obstacle_force
+            - obstacle_force_terms
+
+        "state": 12; "obstacle": the readings of `maths.layout`;
+        "obstacle_force": F_o (3); "obstacle_force_terms": [A, B] (6).
+        """
+
+        def _construct(self, field, params, goal, collision_radius, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.field = field
+            self.params = copy.deepcopy(params)
+            self.goal = np.array(goal, dtype=float)
+            self.collision_radius = float(collision_radius)
+            self._last = LastResult(enabled=T is float)
+            self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+            self._obstacle = self.DeclareVectorInputPort(
+                "obstacle", OBSTACLE_SIGNAL_SIZE
+            )
+            tickets = {self._state.ticket(), self._obstacle.ticket()}
+            self.DeclareVectorOutputPort(
+                "obstacle_force",
+                3,
+                lambda context, out: out.SetFromVector(self._terms(context)[2]),
+                prerequisites_of_calc=tickets,
+            )
+            self.DeclareVectorOutputPort(
+                "obstacle_force_terms",
+                6,
+                lambda context, out: out.SetFromVector(
+                    np.concatenate(self._terms(context)[:2])
+                ),
+                prerequisites_of_calc=tickets,
+            )
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(
+                self,
+                other.field,
+                other.params,
+                other.goal,
+                other.collision_radius,
+                converter=converter,
+            )
+
+        def _terms(self, context):
+            """(A, B, F_o), computed once for both outputs."""
+            x = self._state.Eval(context)
+            obstacle = self._obstacle.Eval(context)
+            key = x.tobytes() + obstacle.tobytes()
+            return self._last(key, self._terms_of, x, obstacle)
+
+        def _terms_of(self, x, obstacle):
+            p, v = position_velocity(x)
+            A, B = fields.superposed(
+                self.field,
+                v,
+                obstacle,
+                self.goal - p,
+                self.collision_radius,
+                self.params,
+            )
+            return A, B, A + B
+
+    return Impl
+
+
+ObstacleNavigator = ObstacleNavigator_[None]
+
+
+def MfiNavigator(params, goal, collision_radius: float):
+    """The MFI obstacle field F_o = F + F_a (eq 11–15); terms [F, F_a]."""
+    return ObstacleNavigator(fields.obstacle_field, params, goal, collision_radius)
+
+
+def ApfNavigator(params, goal, collision_radius: float):
+    """APF's obstacle part: Khatib's repulsion; terms [F_rep, 0]."""
+    return ObstacleNavigator(
+        baselines.apf_obstacle_field, params, goal, collision_radius
+    )
+
+
+def GfNavigator(params, goal, collision_radius: float):
+    """GF's obstacle part: gyroscopic steering plus repulsion; terms
+    [S ṗ, F_rep]."""
+    return ObstacleNavigator(
+        baselines.gf_obstacle_field, params, goal, collision_radius
+    )
+
+
+@TemplateSystem.define("GoalAttractionSelector_")
+def GoalAttractionSelector_(T):
+    class Impl(LeafSystem_[T]):
+        """Goal attraction and the mode switch of eq 21: F_n from F_o.
+
+        Cruise: F_n = F_o + F_gc + F_v (eq 16–19); PD: F_n = F_o + F_pd
+        (eq 20). With `mode=None` the mode is a discrete state, set at
+        initialization from the initial state and switched by witness
+        functions (cruise_guard / pd_guard crossing zero), so the integrator
+        localises each switch instead of stepping over a jump. A fixed
+        `mode` (fields.MODE_PD or MODE_CRUISE) declares no state, for
+        linearisation.
+
+        .. pydrake_system::
+
+            name: GoalAttractionSelector
+            input_ports:
+            - state
+            - obstacle_force
+            output_ports:
+            - navigation_force
+            - goal_force_terms
+            - mode
+
+        "state": 12; "obstacle_force": F_o (3); "navigation_force": F_n (3);
+        "goal_force_terms": [F_gc, F_v, F_pd] (9); "mode": eq 21's mode (1).
+        """
+
+        def _construct(self, params, goal, mode=None, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.params = copy.deepcopy(params)
+            self.goal = np.array(goal, dtype=float)
+            self.fixed_mode = mode
+            self._last = LastResult(enabled=T is float)
+            self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+            self._obstacle_force = self.DeclareVectorInputPort("obstacle_force", 3)
+            tickets = {self._state.ticket()}
+            if mode is None:
+                self._mode_index = self.DeclareDiscreteState(1)
+                tickets.add(self.discrete_state_ticket(self._mode_index))
+                self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
+                to_cruise = UnrestrictedUpdateEvent_[T](
+                    self._switch_to(fields.MODE_CRUISE)
+                )
+                to_pd = UnrestrictedUpdateEvent_[T](self._switch_to(fields.MODE_PD))
+                self._witness = {
+                    fields.MODE_PD: self.MakeWitnessFunction(
+                        "eq 21: PD -> cruise",
+                        WitnessFunctionDirection.kNegativeThenNonNegative,
+                        self._guard(fields.cruise_guard),
+                        to_cruise,
+                    ),
+                    fields.MODE_CRUISE: self.MakeWitnessFunction(
+                        "eq 21: cruise -> PD",
+                        WitnessFunctionDirection.kPositiveThenNonPositive,
+                        self._guard(fields.pd_guard),
+                        to_pd,
+                    ),
+                }
+            self.DeclareVectorOutputPort(
+                "navigation_force",
+                3,
+                self._calc_force,
+                prerequisites_of_calc=tickets | {self._obstacle_force.ticket()},
+            )
+            self.DeclareVectorOutputPort(
+                "goal_force_terms",
+                9,
+                lambda context, out: out.SetFromVector(
+                    np.concatenate(self._terms(context))
+                ),
+                prerequisites_of_calc=tickets,
+            )
+            if mode is None:
+                self.DeclareStateOutputPort("mode", self._mode_index)
+            else:
+                self.DeclareVectorOutputPort(
+                    "mode",
+                    1,
+                    lambda context, out: out.SetAtIndex(0, float(mode)),
+                    prerequisites_of_calc={self.nothing_ticket()},
+                )
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(
+                self, other.params, other.goal, other.fixed_mode, converter=converter
+            )
+
+        def mode(self, context) -> int:
+            if self.fixed_mode is not None:
+                return self.fixed_mode
+            # The only discrete state group: get_discrete_state_vector() is
+            # cheaper than get_discrete_state(index).
+            value = context.get_discrete_state_vector().GetAtIndex(0)
+            return round(value if isinstance(value, float) else value.value())
+
+        def initial_mode(self, x) -> int:
+            """The mode eq 21 selects at rest-or-moving state x from scratch."""
+            p, v = position_velocity(x)
+            if fields.cruise_guard(p, v, self.goal, self.params) >= 0.0:
+                return fields.MODE_CRUISE
+            return fields.MODE_PD
+
+        def _initialize(self, context, state):
+            mode = self.initial_mode(self._state.Eval(context))
+            state.get_mutable_discrete_state(self._mode_index).SetAtIndex(
+                0, float(mode)
+            )
+
+        def _guard(self, guard):
+            def value(x):
+                p, v = position_velocity(x)
+                return guard(p, v, self.goal, self.params)
+
+            # The simulator evaluates the guard at both ends of every step.
+            last = LastResult(enabled=T is float)
+
+            def calc(context):
+                x = self._state.Eval(context)
+                return last(x.tobytes(), value, x)
+
+            return calc
+
+        def _switch_to(self, mode):
+            def update(context, event, state):
+                state.get_mutable_discrete_state(self._mode_index).SetAtIndex(
+                    0, float(mode)
+                )
+
+            return update
+
+        def DoGetWitnessFunctions(self, context):
+            if self.fixed_mode is not None:
+                return []
+            return [self._witness[self.mode(context)]]
+
+        def _terms(self, context):
+            """(F_gc, F_v, F_pd), computed once for both outputs."""
+            x = self._state.Eval(context)
+            mode = self.mode(context)
+            return self._last((mode, x.tobytes()), self._goal_terms, mode, x)
+
+        def _goal_terms(self, mode, x):
+            p, v = position_velocity(x)
+            return fields.goal_terms(mode, p, v, self.goal, self.params)
+
+        def _calc_force(self, context, output):
+            F_gc, F_v, F_pd = self._terms(context)
+            F_o = self._obstacle_force.Eval(context)
+            output.SetFromVector(F_o + F_gc + F_v + F_pd)
+
+    return Impl
+
+
+GoalAttractionSelector = GoalAttractionSelector_[None]
+
+
+@TemplateSystem.define("PotentialGoalAttraction_")
+def PotentialGoalAttraction_(T):
+    class Impl(LeafSystem_[T]):
+        """The baselines' goal attraction: F_n = F_o + F_att with
+        F_att = −∇U_att − k_d ṗ (`baselines.attraction_field`); always "PD"
+        (eq 20 with Khatib's velocity limit), no cruise mode.
+
+        .. pydrake_system::
+
+            name: PotentialGoalAttraction
+            input_ports:
+            - state
+            - obstacle_force
+            output_ports:
+            - navigation_force
+            - goal_force_terms
+            - mode
+
+        "goal_force_terms": [0, 0, F_att] (9, laid out as the selector's
+        [F_gc, F_v, F_pd]); "mode": always fields.MODE_PD.
+        """
+
+        def _construct(self, attraction, goal, converter=None):
+            LeafSystem_[T].__init__(self, converter)
+            self.attraction = copy.deepcopy(attraction)
+            self.goal = np.array(goal, dtype=float)
+            self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+            self._obstacle_force = self.DeclareVectorInputPort("obstacle_force", 3)
+            state = {self._state.ticket()}
+            self.DeclareVectorOutputPort(
+                "navigation_force",
+                3,
+                lambda context, out: out.SetFromVector(
+                    self._obstacle_force.Eval(context) + self._attraction(context)
+                ),
+                prerequisites_of_calc=state | {self._obstacle_force.ticket()},
+            )
+            self.DeclareVectorOutputPort(
+                "goal_force_terms",
+                9,
+                lambda context, out: out.SetFromVector(
+                    np.concatenate([np.zeros(6), self._attraction(context)])
+                ),
+                prerequisites_of_calc=state,
+            )
+            self.DeclareVectorOutputPort(
+                "mode",
+                1,
+                lambda context, out: out.SetAtIndex(0, float(fields.MODE_PD)),
+                prerequisites_of_calc={self.nothing_ticket()},
+            )
+
+        def _construct_copy(self, other, converter=None):
+            Impl._construct(self, other.attraction, other.goal, converter=converter)
+
+        def _attraction(self, context):
+            p, v = position_velocity(self._state.Eval(context))
+            return baselines.attraction_field(p, v, self.goal, self.attraction)
+
+    return Impl
+
+
+PotentialGoalAttraction = PotentialGoalAttraction_[None]
+
+
+class UserFieldError(RuntimeError):
+    """A user's navigation field raised, or returned no finite 3-vector; the
+    message is one line naming the function and the simulated time."""
+
+
+class UserFieldNavigator(LeafSystem):
+    """A user's navigation field F_n = field(position, velocity,
+    obstacle_points, goal) as a navigator (float only: it calls Python).
+
+    `field` gets the position, velocity and goal as 3-vectors [m, m/s, world
+    frame, z up] and obstacle_points, a (k, 3) array of the seen readings'
+    r_o, nearest first; it returns F_n [N, world frame]. Its F_n leaves as
+    "obstacle_force" so that a `PassThroughGoal` hands it on unchanged.
+
+    .. pydrake_system::
+
+        name: UserFieldNavigator
+        input_ports:
+        - state
+        - obstacle
+        output_ports:
+        - obstacle_force
+        - obstacle_force_terms
+
+    "obstacle_force_terms": [F_n, 0] (6).
+    """
+
+    def __init__(self, field, name: str, goal):
+        super().__init__()
+        self.field = field
+        self.field_name = name
+        self.goal = np.array(goal, dtype=float)
+        self._last = LastResult()
+        self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+        self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
+        tickets = {self._state.ticket(), self._obstacle.ticket()}
+        self.DeclareVectorOutputPort(
+            "obstacle_force",
+            3,
+            lambda context, out: out.SetFromVector(self._force(context)),
+            prerequisites_of_calc=tickets,
+        )
+        self.DeclareVectorOutputPort(
+            "obstacle_force_terms",
+            6,
+            lambda context, out: out.SetFromVector(
+                np.concatenate([self._force(context), np.zeros(3)])
+            ),
+            prerequisites_of_calc=tickets,
+        )
+
+    def _force(self, context):
+        x = self._state.Eval(context)
+        obstacle = self._obstacle.Eval(context)
+        key = x.tobytes() + obstacle.tobytes()
+        return self._last(key, self._call, x, obstacle, context.get_time())
+
+    def _call(self, x, obstacle, time: float) -> np.ndarray:
+        p, v = position_velocity(x)
+        where = f"{self.field_name} at t = {time:.3f} s"
+        try:
+            # Copies: the user's function cannot change the diagram's values.
+            force = self.field(
+                p.copy(), v.copy(), seen_points(obstacle), self.goal.copy()
+            )
+            force = np.asarray(force, dtype=float)
+        except Exception as e:
+            message = " ".join(str(e).split())
+            raise UserFieldError(
+                f"{where}: raised {type(e).__name__}: {message}"
+            ) from None
+        if force.shape != (3,) or not np.all(np.isfinite(force)):
+            shown = " ".join(repr(force.tolist()).split())[:80]
+            raise UserFieldError(
+                f"{where}: returned {shown}: must be 3 finite numbers (F_n [N])"
+            )
+        return force
+
+
+class PassThroughGoal(LeafSystem):
+    """The goal attraction of a method whose navigator already gives F_n (a
+    user field): F_n = F_o, no goal terms, mode PD.
+
+    .. pydrake_system::
+
+        name: PassThroughGoal
+        input_ports:
+        - state
+        - obstacle_force
+        output_ports:
+        - navigation_force
+        - goal_force_terms
+        - mode
+
+    "state" is unused; it is there so that every goal attraction has the
+    same ports.
+    """
+
+    def __init__(self):
+        super().__init__()
+        self.DeclareVectorInputPort("state", STATE_SIZE)
+        force = self.DeclareVectorInputPort("obstacle_force", 3)
+        self.DeclareVectorOutputPort(
+            "navigation_force",
+            3,
+            lambda context, out: out.SetFromVector(force.Eval(context)),
+            prerequisites_of_calc={force.ticket()},
+        )
+        self.DeclareVectorOutputPort(
+            "goal_force_terms",
+            9,
+            lambda context, out: out.SetFromVector(np.zeros(9)),
+            prerequisites_of_calc={self.nothing_ticket()},
+        )
+        self.DeclareVectorOutputPort(
+            "mode",
+            1,
+            lambda context, out: out.SetAtIndex(0, float(fields.MODE_PD)),
+            prerequisites_of_calc={self.nothing_ticket()},
+        )

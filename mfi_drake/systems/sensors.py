@@ -1,0 +1,146 @@
+"""The vehicle in SceneGraph and the paper's sphere sensor (§III)."""
+
+import copy
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import Box as DrakeBox
+from pydrake.geometry import Cylinder as DrakeCylinder
+from pydrake.geometry import (
+    FramePoseVector,
+    GeometryFrame,
+    GeometryInstance,
+    IllustrationProperties,
+    QueryObject,
+    Rgba,
+    Role,
+    SceneGraph,
+)
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.systems.framework import LeafSystem
+
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, POSITION, STATE_SIZE
+from mfi_drake.world.obstacles import nearest_obstacles
+
+VEHICLE_RGBA = Rgba(0.1, 0.3, 0.8, 1.0)
+
+
+class SphereSensor(LeafSystem):
+    """The paper's local sensor (§III): the closest obstacle point within r_s,
+    of each of the OBSTACLE_COUNT nearest obstacles (`maths.layout`).
+
+    .. pydrake_system::
+
+        name: SphereSensor
+        input_ports:
+        - query
+        - state
+        output_ports:
+        - obstacle
+
+    "query": SceneGraph's QueryObject; "state": the plant's 12-vector;
+    "obstacle": OBSTACLE_COUNT readings [r_o, seen], nearest first.
+    """
+
+    def __init__(self, radius: float):
+        super().__init__()
+        self._radius = float(radius)
+        self._last_key = None  # (position bytes, geometry version), see _calc
+        self._last_value = None
+        self._query = self.DeclareAbstractInputPort(
+            "query", AbstractValue.Make(QueryObject())
+        )
+        self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+        self.DeclareVectorOutputPort(
+            "obstacle",
+            OBSTACLE_SIGNAL_SIZE,
+            self._calc,
+            prerequisites_of_calc={self._query.ticket(), self._state.ticket()},
+        )
+
+    def _calc(self, context, output):
+        p = self._state.Eval(context)[POSITION]
+        query = self._query.Eval(context)
+        # The obstacles are anchored, so the reading depends on p and on the
+        # proximity geometry, which only changes with its version. The query
+        # object itself is valid only during this evaluation: not kept.
+        version = query.inspector().geometry_version()
+        key = p.tobytes()
+        if (
+            self._last_key is None
+            or key != self._last_key[0]
+            or not version.IsSameAs(self._last_key[1], Role.kProximity)
+        ):
+            self._last_value = nearest_obstacles(query, p, self._radius)
+            self._last_key = (key, copy.copy(version))
+        output.SetFromVector(self._last_value)
+
+
+class VehicleGeometry(LeafSystem):
+    """Registers the vehicle's body frame and a visual shape with SceneGraph
+    and moves the frame with the plant's state.
+
+    .. pydrake_system::
+
+        name: VehicleGeometry
+        input_ports:
+        - state
+        output_ports:
+        - geometry_pose
+
+    The shapes carry only the illustration role: the vehicle is drawn, but
+    neither the sphere sensor nor a camera can see it.
+    """
+
+    def __init__(
+        self,
+        scene_graph: SceneGraph,
+        arm_length: float,
+        rotor_radius: float,
+        rgba: Rgba = VEHICLE_RGBA,
+    ):
+        super().__init__()
+        self._source = scene_graph.RegisterSource("vehicle")
+        self.frame_id = scene_graph.RegisterFrame(self._source, GeometryFrame("body"))
+        parts = [(RigidTransform(), DrakeBox(0.6 * arm_length, 0.6 * arm_length, 0.05))]
+        for k in range(4):
+            angle = k * np.pi / 2
+            arm_pose = RigidTransform(
+                RollPitchYaw(0.0, 0.0, angle),
+                [
+                    0.5 * arm_length * np.cos(angle),
+                    0.5 * arm_length * np.sin(angle),
+                    0.0,
+                ],
+            )
+            parts.append((arm_pose, DrakeBox(arm_length, 0.02, 0.02)))
+            rotor_pose = RigidTransform(
+                [arm_length * np.cos(angle), arm_length * np.sin(angle), 0.03]
+            )
+            parts.append((rotor_pose, DrakeCylinder(rotor_radius, 0.01)))
+        for i, (pose, shape) in enumerate(parts):
+            instance = GeometryInstance(pose, shape, f"vehicle_{i}")
+            illustration = IllustrationProperties()
+            illustration.AddProperty("phong", "diffuse", rgba)
+            instance.set_illustration_properties(illustration)
+            scene_graph.RegisterGeometry(self._source, self.frame_id, instance)
+        self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+        self.DeclareAbstractOutputPort(
+            "geometry_pose",
+            lambda: AbstractValue.Make(FramePoseVector()),
+            self._calc,
+            prerequisites_of_calc={self._state.ticket()},
+        )
+
+    @property
+    def source_id(self):
+        return self._source
+
+    def _calc(self, context, output):
+        x = self._state.Eval(context)
+        # Three scalars and a RotationMatrix pick pydrake's overloads at once;
+        # a vector and a RollPitchYaw make it try (and reject) several first.
+        rotation = RollPitchYaw(x[3], x[4], x[5]).ToRotationMatrix()
+        output.get_mutable_value().set_value(
+            self.frame_id, RigidTransform(rotation, x[:3])
+        )

@@ -1,0 +1,177 @@
+"""Seeded random obstacle fields for the Monte Carlo sweep.
+
+The workspace (`Workspace`, all lengths in metres, world frame, z up):
+
+- start = (0, 0, h) and goal = (L, 0, h): a straight start–goal line of
+  length L = 10 along +x at height h = 2;
+- obstacle centres are uniform in the box x ∈ [m, L − m], y ∈ [−w, w],
+  z ∈ [h − w, h + w] with m = 1 and w = 2.5 (an 8 × 5 × 5 m³ box around the
+  line); obstacles may overlap each other and stick out of the box;
+- there is no floor or ceiling: the vehicle may pass any side of anything.
+
+Density = obstacles per cubic metre of that box: a field holds
+round(density × 200 m³) obstacles (0.1 → 20). Each obstacle is one of the
+six shape kinds of the scenario format, drawn with equal probability, with a
+uniformly random orientation and sizes in `shapes.SHAPES` (every obstacle fits in a
+ball of radius ≲ 1.3 m). Convex obstacles are random prisms over a convex
+polygon or stretched icosahedra, written as OBJ files into a mesh directory.
+
+Each candidate obstacle that comes within the vehicle's collision radius plus
+`Workspace.clearance` of the start or the goal (exact SceneGraph distance,
+`obstacles.obstacle_distances`) is redrawn, so both are in free space with that
+much room. Field `index` at seed `seed` uses the random stream
+`default_rng([seed, index])`, one draw sequence per obstacle, so a field is
+reproducible and a denser field with the same seed and index holds the
+sparser one's obstacles plus more.
+"""
+
+import dataclasses
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.common.yaml import yaml_dump_typed
+from pydrake.math import RollPitchYaw, RotationMatrix
+
+from mfi_drake.config import scenario as sc
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.files import write_text
+from mfi_drake.world.meshes import read_obj, write_obj
+from mfi_drake.world.obstacles import obstacle_distances
+from mfi_drake.world.shapes import SHAPES
+
+# The kinds in the order a field draws them from (the table's order).
+SHAPE_KINDS = tuple(SHAPES.values())
+
+
+@dataclass(frozen=True)
+class Workspace:
+    """Where the fields live; see the module docstring."""
+
+    length: float = 10.0  # m, start → goal along +x
+    height: float = 2.0  # m, z of the start–goal line
+    half_width: float = 2.5  # m, obstacle centres within ±w of the line (y, z)
+    margin: float = 1.0  # m, obstacle centres x ∈ [margin, length − margin]
+    clearance: float = 0.5  # m, room around start and goal beyond the vehicle
+
+    @property
+    def start(self) -> list[float]:
+        return [0.0, 0.0, self.height]
+
+    @property
+    def goal(self) -> list[float]:
+        return [self.length, 0.0, self.height]
+
+    @property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) corners of the box holding the obstacle centres."""
+        w = self.half_width
+        low = np.array([self.margin, -w, self.height - w])
+        high = np.array([self.length - self.margin, w, self.height + w])
+        return low, high
+
+    @property
+    def volume(self) -> float:
+        low, high = self.box
+        return float(np.prod(high - low))
+
+    def obstacle_count(self, density: float) -> int:
+        return round(density * self.volume)
+
+
+DEFAULT_WORKSPACE = Workspace()
+DEFAULT_DENSITY = 0.1  # obstacles per m³: 20 in the box
+DEFAULT_DURATION = 60.0  # s of simulated time, ≥ 3× a 1 m/s flight of the line
+
+
+def field_name(seed: int, index: int, density: float) -> str:
+    return f"field_d{density:g}_s{seed}_i{index}"
+
+
+def random_rpy_deg(rng: np.random.Generator) -> list[float]:
+    """Roll, pitch, yaw [deg] of a uniformly random rotation (a normalised
+    4-D Gaussian is a uniform unit quaternion)."""
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    rpy = RollPitchYaw(RotationMatrix(Quaternion(q)))
+    return [float(a) for a in np.degrees(rpy.vector())]
+
+
+def random_obstacle(
+    rng: np.random.Generator, low: np.ndarray, high: np.ndarray, mesh_file: str
+) -> sc.Obstacle:
+    """One obstacle of a random kind, size and orientation, its centre uniform
+    in the box [low, high]; a convex one's mesh is written to `mesh_file`."""
+    kind = SHAPE_KINDS[rng.integers(len(SHAPE_KINDS))]
+    return sc.Obstacle(
+        shape=kind.random(rng, kind.sizes, mesh_file),
+        position=[float(x) for x in rng.uniform(low, high)],
+        # A sphere's orientation changes nothing; it draws none.
+        rpy_deg=[0.0] * 3 if kind.name == "sphere" else random_rpy_deg(rng),
+    )
+
+
+def random_field(
+    seed: int,
+    index: int,
+    density: float,
+    mesh_dir: str,
+    workspace: Workspace = DEFAULT_WORKSPACE,
+    vehicle: str = "drake_default",
+    sensor: sc.Sensor | None = None,
+    duration: float = DEFAULT_DURATION,
+) -> sc.Scenario:
+    """Field `index` of seed `seed` at `density` obstacles per m³ (see the
+    module docstring). Convex meshes are written into `mesh_dir`."""
+    if not (math.isfinite(density) and density >= 0.0):
+        raise ValueError(f"density = {density!r}: must be a finite number ≥ 0")
+    os.makedirs(mesh_dir, exist_ok=True)
+    name = field_name(seed, index, density)
+    scenario = sc.Scenario(
+        name=name,
+        start=workspace.start,
+        goal=workspace.goal,
+        duration=duration,
+        vehicle=vehicle,
+        sensor=sensor if sensor is not None else sc.SphereSensor(),
+        base_dir=os.path.abspath(mesh_dir),
+    )
+    needed = VEHICLES[vehicle].collision_radius + workspace.clearance
+    low, high = workspace.box
+    rng = np.random.default_rng([seed, index])
+    for k in range(workspace.obstacle_count(density)):
+        mesh_file = os.path.join(mesh_dir, f"{name}_obstacle{k}.obj")
+        while True:
+            obstacle = random_obstacle(rng, low, high, mesh_file)
+            alone = dataclasses.replace(scenario, obstacles=[obstacle])
+            ends = [workspace.start, workspace.goal]
+            if min(obstacle_distances(alone, ends)) >= needed:
+                break
+        if not isinstance(obstacle.shape, sc.Convex) and os.path.exists(mesh_file):
+            os.remove(mesh_file)  # left by a redrawn convex candidate
+        scenario.obstacles.append(obstacle)
+    return scenario
+
+
+def write_scenario(scenario: sc.Scenario, path: str, header: str = "") -> None:
+    """Writes `scenario` as a YAML file that `load_scenario` reads back equal;
+    the mesh of convex obstacle k is copied next to it as <stem>_obstacle<k>.obj.
+    Only fields that differ from the defaults are written. Atomic."""
+    directory = os.path.dirname(os.path.abspath(path))
+    stem = os.path.splitext(os.path.basename(path))[0]
+    os.makedirs(directory, exist_ok=True)
+    obstacles = []
+    for k, obstacle in enumerate(scenario.obstacles):
+        shape = obstacle.shape
+        if isinstance(shape, sc.Convex):
+            file = f"{stem}_obstacle{k}.obj"
+            write_obj(
+                os.path.join(directory, file), *read_obj(sc.mesh_path(scenario, shape))
+            )
+            shape = dataclasses.replace(shape, file=file)
+        obstacles.append(dataclasses.replace(obstacle, shape=shape))
+    written = dataclasses.replace(scenario, obstacles=obstacles, base_dir="")
+    text = yaml_dump_typed(written, defaults=sc.Scenario())
+    write_text(path, header + text)
