@@ -12,6 +12,7 @@ import math
 import os
 import subprocess
 import sys
+from functools import partial, reduce
 
 from mfi_drake.config.scenario import ScenarioError, read_override
 from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
@@ -183,11 +184,16 @@ def cmd_sweep(args) -> int:
             "the sweep needs Dask distributed: pip install 'mfi_drake[sweep]'"
         ) from None
     from mfi_drake.app.figures import plot_sweep
+    from mfi_drake.config.faults import faults_from_yaml
     from mfi_drake.studies.sweep import (
         SweepConfig,
         dask_client,
+        fault_variant,
+        override_variant,
         run_sweep,
         summary_table,
+        with_faults,
+        with_overrides,
     )
 
     methods = parse_methods(args.methods) if args.methods else list(METHODS)
@@ -207,19 +213,20 @@ def cmd_sweep(args) -> int:
         sensor=args.sensor,
         out=args.out,
     )
-    modify = None
+    steps, variants = [], []
+    if args.overrides:
+        texts = overrides(args)
+        steps.append(partial(with_overrides, overrides=texts))
+        variants.append(override_variant(texts))
     if args.faults is not None:
-        from functools import partial
-
-        from mfi_drake.config.faults import faults_from_yaml
-        from mfi_drake.studies.sweep import fault_variant, with_faults
-
         try:
             faults = faults_from_yaml(args.faults)
         except ValueError as e:
             raise UsageError(f"--faults = {args.faults!r}: {e}") from None
-        config.variant = fault_variant(faults)
-        modify = partial(with_faults, faults=faults)
+        steps.append(partial(with_faults, faults=faults))
+        variants.append(fault_variant(faults))
+    config.variant = ",".join(v for v in variants if v)
+    modify = partial(reduce, lambda scenario, step: step(scenario), steps)
     try:
         with dask_client(args.workers, args.scheduler) as client:
             run = run_sweep(config, client, modify)
@@ -247,12 +254,15 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_analyze(args) -> int:
+    from mfi_drake.app.analysis_figures import write_analysis_figures
     from mfi_drake.files import write_json
     from mfi_drake.studies.analysis import run_analysis, summary
 
     scenario = scenario_of(args)
     out = args.out or os.path.join("out", scenario.name, "analysis")
-    report = _json_safe(run_analysis(scenario, out))
+    report, series = run_analysis(scenario)
+    report["figures"] = write_analysis_figures(series, out)
+    report = _json_safe(report)
     write_json(os.path.join(out, "analysis.json"), report)
     if args.json:
         print(json.dumps(report))
@@ -328,6 +338,7 @@ def make_parser() -> argparse.ArgumentParser:
     sweep = sub.add_parser(
         "sweep", help="Monte Carlo benchmark on random obstacle fields (Dask)"
     )
+    add_overrides(sweep)
     sweep.add_argument("--n", type=int, default=30, help="fields per density")
     sweep.add_argument("--seed", type=int, default=0, help="seed of the fields")
     sweep.add_argument(

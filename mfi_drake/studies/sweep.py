@@ -28,6 +28,7 @@ keys the records by `variant` too.
 
 import contextlib
 import dataclasses
+import hashlib
 import json
 import logging
 import math
@@ -46,6 +47,7 @@ from mfi_drake.config.scenario import (
     DepthCamera,
     Scenario,
     SphereSensor,
+    layer,
     scenario_from_yaml,
     scenario_to_yaml,
 )
@@ -463,3 +465,25 @@ def with_faults(scenario, faults: Faults):
     scenario's name so that the fields of a sweep draw independent noise."""
     seed = faults.seed + zlib.crc32(scenario.name.encode())
     return replace(scenario, faults=replace(faults, seed=seed))
+
+
+def with_overrides(scenario: Scenario, overrides: list[tuple[str, str]]) -> Scenario:
+    """`scenario` with each (where, YAML text) override layered on it, as
+    `mfi-drake run --set/--override` layers them on a file."""
+    for where, text in overrides:
+        scenario = layer(scenario, text, where)
+    return scenario
+
+
+def override_variant(overrides: list[tuple[str, str]]) -> str:
+    """A name for a sweep variant of overrides: each --set text as given, each
+    file as its name and a hash of its text (so a changed file is a new
+    variant)."""
+    parts = []
+    for where, text in overrides:
+        if where.startswith("--set"):
+            parts.append(" ".join(text.split()))
+        else:
+            digest = hashlib.sha1(text.encode()).hexdigest()[:8]
+            parts.append(f"{os.path.basename(where)}@{digest}")
+    return ";".join(parts)
