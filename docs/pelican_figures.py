@@ -1,4 +1,4 @@
-"""The README's Pelican figures (paper §VI-B, Fig 10b and 11).
+"""The Pelican figures of docs/depth_camera.md (paper §VI-B, Fig 10b and 11).
 
     python docs/pelican_figures.py
 

@@ -1,4 +1,4 @@
-"""How the APF and GF default gains were chosen (README, "Baselines").
+"""How the APF and GF default gains were chosen (docs/comparison.md).
 
 Flies every gain set of a fixed grid on the four paper scenarios and ranks
 the sets by a key fixed before looking at any result:

@@ -13,11 +13,32 @@ from pydrake.systems.primitives import Linearize
 
 from mfi_drake.app.cli import main
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.flight.analysis_diagram import build_analysis_diagram, hover_state
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import fields
 from mfi_drake.maths.layout import obstacle_signal
 from mfi_drake.maths.quadcopter import GRAVITY, attitude_gains
-from mfi_drake.studies import analysis
+from mfi_drake.maths.reduced_models import (
+    point_mass_heading,
+    reduced_terminal_dynamics,
+)
+from mfi_drake.studies.analysis.cruise import cruise_report, far_goal_heading
+from mfi_drake.studies.analysis.linearization import (
+    finite_difference_jacobian,
+    gain_sweep,
+    hover_matrix,
+    linearize_closed_loop,
+    plant_at_hover,
+    plant_report,
+    with_gains,
+)
+from mfi_drake.studies.analysis.roa import (
+    certified_quadratic,
+    reduced_model_boundary,
+    reduced_model_constants,
+    roa_sampled,
+    roa_sos,
+)
 from mfi_drake.systems.navigation import MfiNavigator
 from mfi_drake.world.validation import load_scenario
 
@@ -38,14 +59,14 @@ def loop_constants():
 
 
 def test_plant_linearisation_matches_hand_derived_A_B():
-    A, B = analysis.plant_at_hover(VEHICLE)
+    A, B = plant_at_hover(VEHICLE)
     m, L, kF, kM = VEHICLE.mass, VEHICLE.arm_length, VEHICLE.kF, VEHICLE.kM
     J = np.asarray(VEHICLE.inertia)
     A_hand = np.zeros((12, 12))
     A_hand[0:6, 6:12] = np.eye(6)
     A_hand[6, 4] = GRAVITY  # +pitch accelerates toward +x
     A_hand[7, 3] = -GRAVITY  # +roll toward −y
-    D = np.array(  # NOTES.md: [T, τx, τy, τz] = D u
+    D = np.array(  # eq 8: [T, τx, τy, τz] = D u
         [
             [kF, kF, kF, kF],
             [0.0, L * kF, 0.0, -L * kF],
@@ -58,7 +79,7 @@ def test_plant_linearisation_matches_hand_derived_A_B():
     B_hand[9:12] = D[1:4] / J[:, None]
     np.testing.assert_allclose(A, A_hand, atol=1e-12)
     np.testing.assert_allclose(B, B_hand, atol=1e-12)
-    report = analysis.plant_report(VEHICLE)
+    report = plant_report(VEHICLE)
     assert report["controllability_rank"] == 12
     orders = report["reach_order"]
     assert orders["x"] == orders["y"] == 3 and orders["dx"] == orders["dy"] == 2
@@ -87,30 +108,29 @@ def test_closed_loop_linearisation_matches_hand_derived_A():
         -a[1] * K * k_d / GRAVITY,
     ]
     A_hand[11, [5, 11]] = [-a[2], -b[2]]
-    A = analysis.hover_matrix(SCENARIO)
+    A = hover_matrix(SCENARIO)
     np.testing.assert_allclose(A, A_hand, atol=1e-9)
     assert np.linalg.eigvals(A).real.max() < 0.0
 
 
 def test_linearize_agrees_with_central_differences_at_hover_and_in_cruise():
-    hover = analysis.build_analysis_diagram(SCENARIO, fields.MODE_PD)
-    x0 = analysis.hover_state(hover.goal)
+    hover = build_analysis_diagram(SCENARIO, fields.MODE_PD)
+    x0 = hover_state(hover.goal)
     error = np.abs(
-        analysis.linearize_closed_loop(hover, x0)
-        - analysis.finite_difference_jacobian(hover.diagram, x0)
+        linearize_closed_loop(hover, x0) - finite_difference_jacobian(hover.diagram, x0)
     ).max()
     assert error <= 1e-6
     # Cruising 40° off the goal direction, tilted and turning: eq 16–19 and
     # the mixer in AutoDiffXd, away from any equilibrium.
-    cruise = analysis.build_analysis_diagram(SCENARIO, fields.MODE_CRUISE)
-    x = analysis.hover_state([2.0, 1.0, 1.2])
+    cruise = build_analysis_diagram(SCENARIO, fields.MODE_CRUISE)
+    x = hover_state([2.0, 1.0, 1.2])
     x[3:6] = [0.05, -0.1, 0.02]
     x[6:9] = 0.9 * np.array([np.cos(0.7), np.sin(0.7), 0.05])
     x[9:12] = [0.1, -0.2, 0.05]
     context = cruise.diagram.CreateDefaultContext()
     context.SetContinuousState(x)
     A = Linearize(cruise.diagram, context, equilibrium_check_tolerance=np.inf).A()
-    A_fd = analysis.finite_difference_jacobian(cruise.diagram, x)
+    A_fd = finite_difference_jacobian(cruise.diagram, x)
     assert np.abs(A - A_fd).max() <= 1e-6
     assert np.abs(A[6:9, 6:9]).max() > 0.1  # the goal fields do depend on v
 
@@ -120,7 +140,7 @@ def test_linearized_navigator_alone_matches_finite_differences_of_eq_11_15():
     goal = np.asarray(SCENARIO.goal, float)
     navigator = MfiNavigator(PARAMS, goal, VEHICLE.collision_radius)
     context = navigator.CreateDefaultContext()
-    x = analysis.hover_state([3.0, 0.3, 1.5])
+    x = hover_state([3.0, 0.3, 1.5])
     x[6:9] = [0.8, 0.3, 0.1]
     r_o = np.array([0.9, -0.2, 0.1])  # the wall 0.9 m ahead
     state, obstacle = (
@@ -171,7 +191,7 @@ def test_gain_sweep_finds_the_routh_hurwitz_boundaries():
             ((a * k_d * b + disc) / (2 * b * b * k_p), "above"),
         ],
     }
-    sweep = analysis.gain_sweep(SCENARIO)
+    sweep = gain_sweep(SCENARIO)
     for gain, boundaries in expected.items():
         low, high = sweep[gain]["factors"][[0, -1]]
         boundaries = [(f, side) for f, side in boundaries if low < f < high]
@@ -188,7 +208,7 @@ def flight():
 
 
 def test_zero_work_terms_do_no_work_at_field_level_but_do_through_the_lag(flight):
-    report = analysis.cruise_report(flight)["report"]
+    report = cruise_report(flight)["report"]
     assert report["recomputed_vs_logged_max_difference"] <= 1e-12
     assert report["zero_work_field_max_abs_power"] <= 1e-9
     # The vehicle realises them through its lagging tilt: not zero...
@@ -206,7 +226,7 @@ def test_heading_of_a_point_mass_decays_as_eq_17_closed_form():
     """Far goal, start across it: β(t) = β0 exp(−K_ω t / m) for a point mass."""
     times = np.linspace(0.0, 2.0, 41)
     goal = np.array([1e4, 0.0, 0.0])
-    beta = analysis.point_mass_heading(
+    beta = point_mass_heading(
         np.zeros(3), np.array([0.0, PARAMS.v_d, 0.0]), goal, PARAMS, 0.8, times
     )
     closed_form = (np.pi / 2) * np.exp(-PARAMS.K_omega * times / 0.8)
@@ -214,7 +234,7 @@ def test_heading_of_a_point_mass_decays_as_eq_17_closed_form():
 
 
 def test_vehicle_heading_decays_at_the_rate_of_the_lagged_loop():
-    far = analysis.far_goal_heading(SCENARIO)
+    far = far_goal_heading(SCENARIO)
     assert far["point_mass_max_difference_to_closed_form"] < 2e-3
     assert far["vehicle_rate"] == pytest.approx(far["lagged_model_rate"], rel=0.05)
 
@@ -222,39 +242,39 @@ def test_vehicle_heading_decays_at_the_rate_of_the_lagged_loop():
 def test_region_of_attraction_certificate_of_a_known_system():
     """ẋ = −x + x³ is attracted to 0 exactly on |x| < 1."""
     x = Variable("x")
-    S = analysis.certified_quadratic([x], [-x + x**3])
+    S = certified_quadratic([x], [-x + x**3])
     boundary = 1.0 / np.sqrt(S[0, 0])
     assert 0.99 <= boundary <= 1.0 + 1e-6
 
 
 def test_reduced_model_has_the_lateral_modes_of_the_full_closed_loop():
-    constants = analysis.reduced_model_constants(SCENARIO)
+    constants = reduced_model_constants(SCENARIO)
     x = [Variable(n) for n in "evtw"]
     J = Evaluate(
-        Jacobian(analysis.reduced_terminal_dynamics(x, **constants), x),
+        Jacobian(reduced_terminal_dynamics(x, **constants), x),
         {v: 0.0 for v in x},
     )
-    full = np.linalg.eigvals(analysis.hover_matrix(SCENARIO))
+    full = np.linalg.eigvals(hover_matrix(SCENARIO))
     for eigenvalue in np.linalg.eigvals(J):
         assert np.abs(full - eigenvalue).min() < 1e-8
 
 
 def test_sos_certificate_holds_for_the_reduced_model():
-    sos = analysis.roa_sos(SCENARIO)
+    sos = roa_sos(SCENARIO)
     assert 0.1 < sos["radius"] <= sos["radius_reduced_model"]
     S = np.asarray(sos["lyapunov_S"])
-    constants = analysis.reduced_model_constants(SCENARIO)
+    constants = reduced_model_constants(SCENARIO)
     # V̇ = 2 xᵀ S f(x) < 0 at random points of the certified set {xᵀ S x ≤ 1}.
     rng = np.random.default_rng(1)
     y = rng.normal(size=(4, 20000))
     y *= rng.uniform(0.01, 1.0, size=20000) / np.linalg.norm(y, axis=0)
     x = np.linalg.solve(np.linalg.cholesky(S).T, y)  # xᵀ S x = |y|²
-    f = np.array(analysis.reduced_terminal_dynamics(x, **constants))
+    f = np.array(reduced_terminal_dynamics(x, **constants))
     assert np.all(np.einsum("ik,ij,jk->k", x, S, f) < 0.0)
     # Every start on the certified ball converges.
     angles = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
     largest = sos["radius_reduced_model"]
-    boundary = analysis.reduced_model_boundary(SCENARIO, angles, largest=largest)
+    boundary = reduced_model_boundary(SCENARIO, angles, largest=largest)
     assert np.all(boundary == largest)
     # On the part quoted for the vehicle, no saturation is active.
     rho = sos["rho_without_saturation"]
@@ -262,9 +282,9 @@ def test_sos_certificate_holds_for_the_reduced_model():
 
 
 def test_sampled_region_of_attraction_detects_divergence():
-    unstable, attitude_K = analysis.with_gains(SCENARIO, {"K_D": 0.05})
-    assert analysis.roa_sampled(unstable, np.array([0.1]), np.eye(6)[:1])["radius"] == 0
-    stable = analysis.roa_sampled(SCENARIO, np.array([0.5, 2.0]), np.eye(6)[[0, 3]])
+    unstable, attitude_K = with_gains(SCENARIO, {"K_D": 0.05})
+    assert roa_sampled(unstable, np.array([0.1]), np.eye(6)[:1])["radius"] == 0
+    stable = roa_sampled(SCENARIO, np.array([0.5, 2.0]), np.eye(6)[[0, 3]])
     assert stable["radius"] == 2.0 and stable["lower_bound_only"]
 
 

@@ -1,4 +1,4 @@
-"""The navigation field of §IV against closed forms, NOTES.md's expanded
+"""The navigation field of §IV against closed forms, docs/design.md's expanded
 forms and the zero-work property."""
 
 import numpy as np

@@ -1,6 +1,6 @@
 """Numerical robustness, property-based (hypothesis): every field function of
 `fields`, `so3`, `quadcopter`, `baselines` and `faults` returns finite values
-for all finite inputs, the singular configurations of NOTES.md included
+for all finite inputs, the singular configurations of docs/design.md included
 (zero speed, head-on, velocity opposite the goal, obstacle distance near zero
 or negative, goal reached, rotations by π), and the zero-work terms stay
 perpendicular to v there.

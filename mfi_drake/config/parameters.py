@@ -3,7 +3,7 @@ the APF and GF baselines.
 
 The paper gives no numbers for any of these; the defaults below were chosen
 for a ~1 kg quadcopter cruising at 1 m/s among obstacles a few metres apart
-(see the README's parameter table for the reasoning). A scenario file
+(see docs/parameters.md for the reasoning). A scenario file
 overrides any of them by name under `navigator:`.
 """
 
@@ -129,7 +129,7 @@ class AttractionParams:
 @dataclass
 class ApfParams:
     """The APF baseline (scenario field `apf:`). Defaults: the best of the
-    grid in docs/tune_baselines.py (see the README, "Baselines")."""
+    grid in docs/tune_baselines.py (see docs/comparison.md)."""
 
     attraction: AttractionParams = field(default_factory=AttractionParams)
     eta: float = 0.02
@@ -143,7 +143,7 @@ class ApfParams:
 @dataclass
 class GfParams:
     """The GF baseline (scenario field `gf:`). Defaults: the best of the grid
-    in docs/tune_baselines.py (see the README, "Baselines"); so strong that
+    in docs/tune_baselines.py (see docs/comparison.md); so strong that
     near an obstacle the steering is limited by the tilt limit, not k_g."""
 
     attraction: AttractionParams = field(default_factory=AttractionParams)

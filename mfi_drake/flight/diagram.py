@@ -86,7 +86,7 @@ def add_sensor(
     geometry: VehicleGeometry,
 ):
     """Adds the scenario's sensor, named "sensor", whose output port
-    "obstacle" carries readings [r_o, seen] (see `sensing`, `camera`)."""
+    "obstacle" carries readings [r_o, seen] (see `maths.layout`)."""
     if isinstance(scenario.sensor, DepthCamera):
         return add_depth_camera(
             builder, scenario.sensor, scene_graph, plant.get_output_port(0), geometry

@@ -116,7 +116,7 @@ def fly(flight: FlightDiagram) -> Flight:
 
 
 def flight_metrics(flight: Flight) -> dict:
-    """The run's numbers (see the README for each definition)."""
+    """The run's numbers (docs/usage.md defines each)."""
     scenario = flight.scenario
     times, p = flight.times, flight.positions
     goal = np.asarray(scenario.goal, float)
