@@ -1,5 +1,6 @@
 """The figures of `analysis`: eigenvalues and root loci, power of the
-zero-work terms, heading decay (eq 17), region of attraction."""
+zero-work terms, heading decay (eq 17), region of attraction, drawn from
+the series `studies.analysis.run_analysis` returns."""
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -235,3 +236,31 @@ def plot_roa(sos: dict, reduced, sampled: dict, radii, directions, path: str) ->
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, which="both")
     _save(fig, path)
+
+
+def write_analysis_figures(series: dict, out_dir: str) -> dict[str, str]:
+    """Writes the four figures of `series` (from `run_analysis`) under
+    `out_dir`; returns {name: path}, the report's "figures"."""
+    figures = {
+        name: f"{out_dir}/{name}.png"
+        for name in ("eigenvalues", "power", "heading", "roa")
+    }
+    plot_eigenvalues(
+        series["eigenvalues"], series["gain_sweep"], figures["eigenvalues"]
+    )
+    plot_power(series["power"], series["v_d"], figures["power"])
+    plot_heading(
+        series["heading_window"],
+        series["far_goal_heading"],
+        series["heading_rate"],
+        figures["heading"],
+    )
+    plot_roa(
+        series["roa_sos"],
+        series["roa_reduced_model"],
+        series["roa_sampled"],
+        series["roa_radii"],
+        series["roa_directions"],
+        figures["roa"],
+    )
+    return figures

@@ -1,0 +1,78 @@
+"""`build_analysis_diagram`: the flight diagram without SceneGraph.
+
+The same plant (`diagram.make_plant`), navigator, selector, attitude PD and
+mixer, wired by `diagram.connect_controller`, with the navigator's
+"obstacle" input fed by a constant "nothing seen" source. Its selector has a
+fixed mode (eq 21's PD or cruise), so the diagram has no discrete state and
+Drake's `Linearize` converts it to AutoDiffXd as it is.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.examples import QuadrotorPlant
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
+
+from mfi_drake.config.parameters import NavigatorParams
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.flight.diagram import connect_controller, make_plant
+from mfi_drake.maths import fields
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE
+from mfi_drake.systems.control import AttitudePD, RotorMixer
+from mfi_drake.systems.navigation import GoalAttractionSelector, MfiNavigator
+
+
+@dataclass
+class AnalysisDiagram:
+    diagram: Diagram
+    plant: QuadrotorPlant
+    vehicle: Vehicle
+    params: NavigatorParams
+    goal: np.ndarray
+
+
+def build_analysis_diagram(
+    scenario: Scenario,
+    mode: int = fields.MODE_PD,
+    attitude_K: tuple[np.ndarray, np.ndarray] | None = None,
+) -> AnalysisDiagram:
+    """The MFI closed loop of `scenario` with eq 21's `mode` fixed and no
+    obstacle seen; `attitude_K` = (K_Pθ, K_Dθ) overrides eq 25's gains."""
+    vehicle = VEHICLES[scenario.vehicle]
+    params = scenario.navigator
+    goal = np.asarray(scenario.goal, float)
+    K_P, K_D = attitude_K if attitude_K is not None else (None, None)
+    builder = DiagramBuilder()
+    plant = builder.AddNamedSystem("quadrotor", make_plant(vehicle))
+    nothing_seen = builder.AddNamedSystem(
+        "no_obstacle", ConstantVectorSource(np.zeros(OBSTACLE_SIGNAL_SIZE))
+    )
+    controller = [
+        builder.AddNamedSystem(name, system)
+        for name, system in (
+            ("navigator", MfiNavigator(params, goal, vehicle.collision_radius)),
+            ("selector", GoalAttractionSelector(params, goal, mode)),
+            ("attitude_pd", AttitudePD(vehicle, params, K_P, K_D)),
+            ("mixer", RotorMixer(vehicle)),
+        )
+    ]
+    connect_controller(builder, plant, nothing_seen.get_output_port(0), *controller)
+    diagram = builder.Build()
+    diagram.set_name(f"mfi_drake analysis[{scenario.name}, mode {mode}]")
+    return AnalysisDiagram(diagram, plant, vehicle, params, goal)
+
+
+def hover_state(position) -> np.ndarray:
+    """At rest and level at `position`."""
+    x = np.zeros(12)
+    x[0:3] = position
+    return x
+
+
+def time_derivatives(diagram: Diagram, x: np.ndarray) -> np.ndarray:
+    """ẋ of `diagram` at continuous state x (its other inputs at default)."""
+    context = diagram.CreateDefaultContext()
+    context.SetContinuousState(x)
+    return diagram.EvalTimeDerivatives(context).CopyToVector()
