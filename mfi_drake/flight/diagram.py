@@ -112,7 +112,7 @@ def connect_controller(
     faults: Faults | None = None,
 ) -> None:
     """Closes the loop: plant state → navigator (its "obstacle" input from
-    `obstacle_port`, a sensor's or, in `analysis`, a constant source's) →
+    `obstacle_port`, a sensor's or, in `flight.analysis_diagram`, a constant source's) →
     selector → attitude PD → mixer → plant, through the state-estimate error
     and rotor faults of `faults` when they are on."""
     faults = faults or Faults()
