@@ -4,11 +4,11 @@ forms and the zero-work property."""
 import numpy as np
 import pytest
 
-from mfi_drake.config.parameters import NavigatorParams
+from mfi_drake.config.parameters import NavigatorParams, paper_form
 from mfi_drake.maths import fields
 from mfi_drake.maths.layout import obstacle_signal
 
-P = NavigatorParams()
+P = paper_form(NavigatorParams())  # the paper's literal eq 11–21
 RADIUS = 0.2  # a collision radius for these tests [m]
 
 

@@ -176,13 +176,17 @@ def cmd_diagram(args) -> int:
     return 0
 
 
-def cmd_sweep(args) -> int:
+def _need_dask() -> None:
     try:
         import distributed  # noqa: F401
     except ImportError:
         raise UsageError(
-            "the sweep needs Dask distributed: pip install 'mfi_drake[sweep]'"
+            "sweep and tune need Dask distributed: pip install 'mfi_drake[sweep]'"
         ) from None
+
+
+def cmd_sweep(args) -> int:
+    _need_dask()
     from mfi_drake.app.figures import plot_sweep
     from mfi_drake.config.faults import faults_from_yaml
     from mfi_drake.studies.sweep import (
@@ -197,14 +201,7 @@ def cmd_sweep(args) -> int:
     )
 
     methods = parse_methods(args.methods) if args.methods else list(METHODS)
-    for name, value, least in (("--n", args.n, 1), ("--workers", args.workers, 1)):
-        if value < least:
-            raise UsageError(f"{name} = {value}: must be ≥ {least}")
-    if args.seed < 0:
-        raise UsageError(f"--seed = {args.seed}: must be ≥ 0")
-    for d in args.density:
-        if not (math.isfinite(d) and d >= 0.0):
-            raise UsageError(f"--density = {d}: must be a finite number ≥ 0")
+    _check_sweep_numbers(args)
     config = SweepConfig(
         n=args.n,
         seed=args.seed,
@@ -250,6 +247,70 @@ def cmd_sweep(args) -> int:
         )
     for line in run.lost:
         print(f"mfi-drake: not run (rerun to retry): {line}", file=sys.stderr)
+    return 1 if run.lost else 0
+
+
+def _check_sweep_numbers(args) -> None:
+    for name, value, least in (("--n", args.n, 1), ("--workers", args.workers, 1)):
+        if value < least:
+            raise UsageError(f"{name} = {value}: must be ≥ {least}")
+    if args.seed < 0:
+        raise UsageError(f"--seed = {args.seed}: must be ≥ 0")
+    for d in args.density:
+        if not (math.isfinite(d) and d >= 0.0):
+            raise UsageError(f"--density = {d}: must be a finite number ≥ 0")
+
+
+def cmd_tune(args) -> int:
+    _need_dask()
+    from mfi_drake.app.figures import plot_sweep
+    from mfi_drake.studies.sweep import (
+        SweepConfig,
+        dask_client,
+        override_variant,
+        run_sweep,
+        summary_table,
+        with_overrides,
+    )
+    from mfi_drake.studies.tune import TuneConfig, TuneError, tune
+
+    methods = parse_methods(args.methods)
+    _check_sweep_numbers(args)
+    config = TuneConfig(
+        methods=methods,
+        candidates=args.candidates,
+        seed=args.seed,
+        n=args.n,
+        densities=list(dict.fromkeys(args.density)),
+        paper_scenarios=args.paper_scenarios,
+        held_out_seed=args.held_out_seed,
+        out=args.out,
+    )
+    try:
+        config.check()
+    except TuneError as e:
+        raise UsageError(str(e)) from None
+    with dask_client(args.workers, args.scheduler) as client:
+        try:
+            tune(config, client)
+        except TuneError as e:
+            raise UsageError(str(e)) from None
+        tuned = read_override(os.path.join(args.out, "tuned.yaml"))
+        print(f"wrote {args.out}/tuned.yaml, tuning.md, tuning.json, tune.jsonl")
+        if args.held_out_seed is None:
+            return 0
+        held_out = SweepConfig(
+            n=args.held_out_n,
+            seed=args.held_out_seed,
+            methods=methods,
+            densities=list(dict.fromkeys(args.held_out_density)),
+            out=os.path.join(args.out, "held_out"),
+            variant=override_variant([tuned]),
+        )
+        run = run_sweep(held_out, client, partial(with_overrides, overrides=[tuned]))
+    plot_sweep(run.summary, os.path.join(held_out.out, "sweep.png"))
+    print(summary_table(run.summary))
+    print(f"wrote {held_out.out}/ (held-out fields, seed {args.held_out_seed})")
     return 1 if run.lost else 0
 
 
@@ -384,6 +445,36 @@ def make_parser() -> argparse.ArgumentParser:
     )
     diagram.add_argument("--out", required=True, help="output .svg file")
     diagram.set_defaults(func=cmd_diagram)
+
+    tune = sub.add_parser(
+        "tune",
+        help="one tuning protocol for every method, then held-out fields (Dask)",
+    )
+    tune.add_argument(
+        "--methods",
+        default=",".join(METHODS),
+        help="comma-separated names or MODULE:NAME (default: every method)",
+    )
+    tune.add_argument(
+        "--candidates", type=int, default=24, help="gain sets per method (budget)"
+    )
+    tune.add_argument("--seed", type=int, default=100, help="training fields' seed")
+    tune.add_argument("--n", type=int, default=10, help="training fields per density")
+    tune.add_argument("--density", type=float, nargs="+", default=[0.1, 0.2])
+    tune.add_argument(
+        "--paper-scenarios", help="a directory whose paper scenarios join training"
+    )
+    tune.add_argument(
+        "--held-out-seed", type=int, help="seed of the held-out fields (≠ --seed)"
+    )
+    tune.add_argument("--held-out-n", type=int, default=200)
+    tune.add_argument(
+        "--held-out-density", type=float, nargs="+", default=[0.05, 0.1, 0.2]
+    )
+    tune.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    tune.add_argument("--scheduler", help="address of a running Dask scheduler")
+    tune.add_argument("--out", default="out/tune", help="output directory")
+    tune.set_defaults(func=cmd_tune)
 
     analyze = sub.add_parser(
         "analyze", help="linearisation, stability and region of attraction (MFI)"

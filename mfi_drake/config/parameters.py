@@ -27,6 +27,30 @@ class NavigatorParams:
     """|l_o| below which a deterministic tangent is blended into l_o [-]."""
     min_distance: float = 1e-3
     """Floor on r in eq 13/15 [m], so the fields stay finite at contact."""
+    # --- repairs of the paper's field (docs/comparison.md, "MFI repairs");
+    # `paper_form` turns them all off -------------------------------------
+    follow_blocking_only: bool = True
+    """(a) Eq 12 acts only on an obstacle the vehicle approaches (l_a·n > 0) or
+    that lies toward the goal (n·l_g > 0, blended in over n·l_g ∈ [0, 0.1]);
+    the paper's eq 12 also pulls a vehicle receding from an obstacle that is
+    not in its way back toward it."""
+    continuous_side: bool = True
+    """(b) The head-on tangent of eq 11 is a continuous function of n and the
+    goal (`fields.continuous_tangent`), instead of a side chosen by the sign
+    of l_o, which flips with a 1e-9 change of heading."""
+    project_others: bool = True
+    """(c) Every obstacle but the nearest contributes only the part of its
+    field that does not push toward the nearest one (in the plane ⟂ v), so
+    the sum keeps the nearest obstacle's boundary following (§IV-A)."""
+    hover_fade: bool = True
+    """(d) F_a (eq 14) fades linearly below fade_speed: its direction follows
+    that of v whatever |v|, so near hover it turns velocity noise into force."""
+    fade_speed: float = 0.3
+    """Speed below which `hover_fade` scales F_a by |v|/fade_speed [m/s]."""
+    smooth_goal_turn: bool = True
+    """(e) Eq 16–18's turning axis blends continuously into a fixed horizontal
+    one as l_a and l_g become opposite, instead of switching from the
+    bisector to a fixed r_ref (a 1.6–5.8 N jump of F_gc)."""
     # --- goal attraction, §IV-B -----------------------------------------
     K_omega: float = 1.5
     """Heading gain K_ω of eq 17 [kg/s]."""
@@ -66,6 +90,20 @@ class NavigatorParams:
     """ω_n of the roll/pitch/yaw loops of eq 25 [rad/s]: K_Pθ = J ω_n²."""
     attitude_damping_ratio: float = 0.9
     """ζ of eq 25's loops [-]: K_Dθ = 2 ζ ω_n J."""
+
+
+REPAIRS = (
+    "follow_blocking_only",
+    "continuous_side",
+    "project_others",
+    "hover_fade",
+    "smooth_goal_turn",
+)
+
+
+def paper_form(params: NavigatorParams) -> NavigatorParams:
+    """`params` with every repair off: the paper's literal eq 11–21."""
+    return dataclasses.replace(params, **dict.fromkeys(REPAIRS, False))
 
 
 def field_problems(params, prefix: str = "") -> list[tuple[str, object, str]]:

@@ -30,6 +30,7 @@ from mfi_drake.config.parameters import (
     NavigatorParams,
     baseline_problems,
     field_problems,
+    paper_form,
     validate_params,
 )
 from mfi_drake.config.vehicles import VEHICLES
@@ -131,8 +132,14 @@ class Scenario:
     sensor: Sensor = field(default_factory=SphereSensor)
     obstacles: list[Obstacle] = field(default_factory=list)
     navigator: NavigatorParams = field(default_factory=NavigatorParams)
+    # The paper's literal MFI (method "mfi-paper"): its own gains, repairs off.
+    mfi_paper: NavigatorParams = field(
+        default_factory=lambda: paper_form(NavigatorParams())
+    )
     apf: ApfParams = field(default_factory=ApfParams)  # the APF baseline's gains
     gf: GfParams = field(default_factory=GfParams)  # the GF baseline's gains
+    # Keyword arguments of a user's field function (MODULE:NAME methods).
+    field_gains: dict[str, float] = field(default_factory=dict)
     faults: Faults = field(default_factory=Faults)  # all off by default
     simulator: SimulatorConfig = field(default_factory=default_simulator_config)
     goal_tolerance: float = 0.1  # m, "reached" radius
@@ -218,12 +225,16 @@ def check_scenario(scenario: Scenario, where: str) -> None:
         _check_camera(where, scenario.sensor)
     else:
         fail(where, "sensor", scenario.sensor, "unknown sensor")
-    for name, value, reason in validate_params(scenario.navigator):
-        fail(where, f"navigator.{name}", value, reason)
+    for key in ("navigator", "mfi_paper"):
+        for name, value, reason in validate_params(getattr(scenario, key)):
+            fail(where, f"{key}.{name}", value, reason)
     for key in ("apf", "gf"):
         params = getattr(scenario, key)
         for name, value, reason in field_problems(params) or baseline_problems(params):
             fail(where, f"{key}.{name}", value, reason)
+    for name, value in scenario.field_gains.items():
+        if not _is_number(value) or not math.isfinite(value):
+            fail(where, f"field_gains.{name}", value, "must be a finite number")
     for name, value, reason in fault_problems(scenario.faults):
         fail(where, f"faults.{name}", value, reason)
     sim = scenario.simulator

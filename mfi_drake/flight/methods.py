@@ -12,6 +12,8 @@ command line as MODULE:NAME or passed to `simulate` as a callable.
 """
 
 import importlib
+import inspect
+import math
 import os
 import sys
 from collections.abc import Callable
@@ -38,6 +40,21 @@ class MethodError(ValueError):
 
 
 @dataclass(frozen=True)
+class Gain:
+    """A free gain of a method, as `mfi-drake tune` searches it: the scenario
+    field `path` (e.g. "navigator.c"), drawn in [low, high], log-uniformly
+    if `log`. With `fraction_of`, the value is that fraction of another
+    gain's (e.g. r_b as a fraction of r_l, which it must stay below)."""
+
+    path: str
+    low: float
+    high: float
+    log: bool = True
+    fraction_of: str | None = None
+    default: float | None = None  # where the scenario does not hold it
+
+
+@dataclass(frozen=True)
 class Method:
     name: str  # as the run JSON, the sweep records and the CLI name it
     label: str  # in figures and tables
@@ -45,6 +62,19 @@ class Method:
     navigator: Callable[[Scenario, Vehicle], object]  # the navigator system
     goal_attraction: Callable[[Scenario], object]  # the goal-attraction system
     parameters: str | None = None  # the Scenario field holding its gains
+    gains: tuple[Gain, ...] = ()  # its documented free gains, for `tune`
+
+
+def _mfi_gains(key: str) -> tuple[Gain, ...]:
+    """MFI's free gains: eq 12–13's c and r_l, eq 15's c⊥ and r_b (< r_l),
+    eq 17's K_ω. The cruise speed v_d stays 1 m/s for every method."""
+    return (
+        Gain(f"{key}.c", 0.5, 16.0),
+        Gain(f"{key}.r_l", 0.5, 2.5),
+        Gain(f"{key}.c_perp", 0.02, 1.0),
+        Gain(f"{key}.r_b", 0.2, 0.9, log=False, fraction_of=f"{key}.r_l"),
+        Gain(f"{key}.K_omega", 0.5, 4.0),
+    )
 
 
 def _goal(scenario: Scenario) -> np.ndarray:
@@ -61,6 +91,18 @@ METHODS: dict[str, Method] = {
         ),
         goal_attraction=lambda s: GoalAttractionSelector(s.navigator, _goal(s)),
         parameters="navigator",
+        gains=_mfi_gains("navigator"),
+    ),
+    "mfi-paper": Method(
+        name="mfi-paper",
+        label="MFI (paper)",
+        colour="tab:cyan",
+        navigator=lambda s, vehicle: MfiNavigator(
+            s.mfi_paper, _goal(s), vehicle.collision_radius
+        ),
+        goal_attraction=lambda s: GoalAttractionSelector(s.mfi_paper, _goal(s)),
+        parameters="mfi_paper",
+        gains=_mfi_gains("mfi_paper"),
     ),
     "apf": Method(
         name="apf",
@@ -71,6 +113,12 @@ METHODS: dict[str, Method] = {
         ),
         goal_attraction=lambda s: PotentialGoalAttraction(s.apf.attraction, _goal(s)),
         parameters="apf",
+        # Khatib's η and ρ₀, and the attraction's stiffness (v_max stays 1 m/s).
+        gains=(
+            Gain("apf.eta", 0.002, 0.5),
+            Gain("apf.rho_0", 0.3, 2.5),
+            Gain("apf.attraction.k_att", 0.5, 4.0),
+        ),
     ),
     "gf": Method(
         name="gf",
@@ -81,6 +129,15 @@ METHODS: dict[str, Method] = {
         ),
         goal_attraction=lambda s: PotentialGoalAttraction(s.gf.attraction, _goal(s)),
         parameters="gf",
+        # The gyroscopic gain and shell, the repulsion inside its safety shell
+        # (ρ₀ < r_d), and the attraction's stiffness (v_max stays 1 m/s).
+        gains=(
+            Gain("gf.k_g", 2.0, 64.0),
+            Gain("gf.r_d", 0.3, 2.0),
+            Gain("gf.eta", 0.002, 0.2),
+            Gain("gf.rho_0", 0.1, 0.9, log=False, fraction_of="gf.r_d"),
+            Gain("gf.attraction.k_att", 0.5, 4.0),
+        ),
     ),
 }
 
@@ -97,15 +154,36 @@ def appearance(name: str) -> tuple[str, str]:
 
 
 def user_method(field: Callable, name: str) -> Method:
-    """A method that flies the user's navigation field `field`."""
+    """A method that flies the user's navigation field `field`. Its free
+    gains are what `field.gains` declares, {name: (low, high)}: the scenario's
+    `field_gains` are passed to it as keyword arguments."""
     label, colour = appearance(name)
+    declared = getattr(field, "gains", {}) or {}
     return Method(
         name=name,
         label=label,
         colour=colour,
-        navigator=lambda s, _: UserFieldNavigator(field, name, _goal(s)),
+        navigator=lambda s, _: UserFieldNavigator(field, name, _goal(s), s.field_gains),
         goal_attraction=lambda _: PassThroughGoal(),
+        parameters="field_gains",
+        gains=tuple(
+            Gain(f"field_gains.{key}", float(low), float(high), default=default)
+            for key, (low, high) in declared.items()
+            for default in [_keyword_default(field, key, low, high)]
+        ),
     )
+
+
+def _keyword_default(field: Callable, key: str, low: float, high: float) -> float:
+    """The default of `field`'s keyword argument `key`, or the geometric
+    middle of its range where it has none."""
+    try:
+        default = inspect.signature(field).parameters[key].default
+    except (KeyError, TypeError, ValueError):
+        default = None
+    if isinstance(default, int | float) and not isinstance(default, bool):
+        return float(default)
+    return math.sqrt(float(low) * float(high))
 
 
 def import_field(spec: str) -> Callable:

@@ -25,6 +25,7 @@ from mfi_drake.maths.so3 import (
     reference_axis,
     rotation_from_reference,
     rotation_vector,
+    smooth_turn,
 )
 
 if TYPE_CHECKING:  # annotations only: the maths layer needs no configuration
@@ -69,25 +70,62 @@ def fallback_tangent(n: np.ndarray, r_g: np.ndarray) -> np.ndarray:
     return t / norm(t)
 
 
+def continuous_tangent(n: np.ndarray, r_g: np.ndarray) -> np.ndarray:
+    """A unit tangent to the obstacle at the closest point that varies
+    continuously with n and the goal (repair (b)): the goal direction
+    projected on the tangent plane (go round on the goal's side) plus a small
+    fixed horizontal bias e_z × n (go round to the left when the goal is
+    straight behind) and a smaller e_x × n (for a vertical n). The sum is
+    zero only on a set of measure zero, where `fallback_tangent` is used."""
+    distance = norm(r_g)
+    l_g = r_g / distance if distance > TINY else _zero3(n)
+    t = (l_g - dot(l_g, n) * n) + 0.1 * cross(E_Z, n) + 0.01 * cross(E_X, n)
+    size = norm(t)
+    return t / size if size > TINY else fallback_tangent(n, r_g)
+
+
 def artificial_current(
-    l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray, blend: float
+    l_a: np.ndarray,
+    n: np.ndarray,
+    r_g: np.ndarray,
+    blend: float,
+    continuous: bool = False,
 ) -> np.ndarray:
     """Eq 11: l_o = l_a − (l_a·n) n, the heading projected on the surface.
 
-    Head-on (l_a·n > 0 and |l_o| < blend) the current is blended with the
-    deterministic `fallback_tangent` t, signed to agree with l_o:
-    l_o + (blend − |l_o|) t, which is never zero and equals eq 11 at
-    |l_o| = blend. Receding from the obstacle, eq 11 is used as it is.
+    Head-on (l_a·n > 0 and |l_o| < blend) the current is blended with a
+    deterministic tangent t: l_o + (blend − |l_o|) t, which equals eq 11 at
+    |l_o| = blend. The paper's form takes `fallback_tangent` signed to agree
+    with l_o (never zero, but its side flips with the sign of l_o);
+    `continuous` takes `continuous_tangent` unsigned, so l_o is continuous
+    in l_a, n and the goal. Receding from the obstacle, eq 11 is used as it
+    is.
     """
     along = dot(l_a, n)
     l_o = l_a - along * n
     size = norm(l_o)
     if along > 0.0 and size < blend:
-        t = fallback_tangent(n, r_g)
-        if dot(l_o, t) < 0.0:
-            t = -t
+        if continuous:
+            t = continuous_tangent(n, r_g)
+        else:
+            t = fallback_tangent(n, r_g)
+            if dot(l_o, t) < 0.0:
+                t = -t
         l_o = l_o + (blend - size) * t
     return l_o
+
+
+def blocking_weight(l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray):
+    """Repair (a): the weight of eq 12 for an obstacle. 1 while the vehicle
+    approaches it (l_a·n ≥ 0); receding, 1 only if it lies toward the goal,
+    n·l_g ≥ 0.1, fading to 0 at n·l_g = 0. Continuous: eq 12 vanishes at
+    l_a·n = 0 whatever the weight."""
+    if dot(l_a, n) >= 0.0:
+        return 1.0
+    distance = norm(r_g)
+    if distance < TINY:
+        return 0.0
+    return min(1.0, max(0.0, 10.0 * dot(r_g, n) / distance))
 
 
 def boundary_following_field(
@@ -144,42 +182,79 @@ def obstacle_field(
     if r < params.min_distance:
         r = params.min_distance + 0.0 * r
     n = r_o / distance
-    l_o = artificial_current(l_a, n, r_g, params.tangent_blend)
+    l_o = artificial_current(l_a, n, r_g, params.tangent_blend, params.continuous_side)
     F = boundary_following_field(l_a, l_o, speed, r, params.c, params.r_l)
+    if params.follow_blocking_only:
+        F = F * blocking_weight(l_a, n, r_g)
     F_a = collision_avoidance_field(l_a, n, l_o, r, params.c_perp, params.r_b)
+    if params.hover_fade and speed < params.fade_speed:
+        F_a = F_a * (speed / params.fade_speed)
     return F, F_a
+
+
+def without_push_toward(F: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """F less its component along unit m when that component is positive."""
+    along = dot(F, m)
+    return F - along * m if along > 0.0 else F
 
 
 def superposed(field, v, obstacle, r_g, collision_radius: float, params):
     """The terms (A, B) of an obstacle field, `field(v, r_o, seen, r_g,
     collision_radius, params)` (e.g. `obstacle_field`), summed over the
-    readings [r_o, seen] of the "obstacle" signal (see `layout`).
+    readings [r_o, seen] of the "obstacle" signal (see `layout`), nearest
+    first.
 
     The fields of separate surface currents add: each obstacle contributes
-    eq 11–15 with its own closest point.
+    eq 11–15 with its own closest point. With `params.project_others`
+    (repair (c); MFI's parameters only), every obstacle after the nearest
+    loses the part of its terms that pushes toward the nearest one, m = the
+    nearest's n made ⟂ v: both terms stay ⟂ v (zero work), and the nearest
+    obstacle's own field decides whether the heading turns toward it.
     """
     A = B = _zero3(v)
+    nearest = True
+    m = None  # toward the nearest obstacle, across v (repair (c))
     for r_o, seen in readings(obstacle):
         if seen <= 0.5:  # unseen: its terms are zero; skip the call
             continue
         A_i, B_i = field(v, r_o, seen, r_g, collision_radius, params)
+        if nearest and getattr(params, "project_others", False):
+            m = _toward_across(r_o, v)
+        elif m is not None:
+            A_i, B_i = without_push_toward(A_i, m), without_push_toward(B_i, m)
+        nearest = False
         A, B = A + A_i, B + B_i
     return A, B
 
 
-def goal_attraction_field(v: np.ndarray, r_g: np.ndarray, K_omega: float):
+def _toward_across(r_o: np.ndarray, v: np.ndarray) -> np.ndarray | None:
+    """The unit direction toward the obstacle at r_o within the plane ⟂ v
+    (None where it is undefined: v = 0, or r_o ∥ v)."""
+    speed, l_a = heading(v)
+    m = r_o - dot(r_o, l_a) * l_a
+    size = norm(m)
+    return m / size if speed > TINY and size > TINY else None
+
+
+def goal_attraction_field(
+    v: np.ndarray, r_g: np.ndarray, K_omega: float, smooth: bool = False
+):
     """Eq 16–18: F_gc = ω_ref × v with ω̂_g = −K_ω log(R_gᵀ R_v), ω_ref = R_g ω_g.
 
     R_v and R_g are eq 16's rotations from r_ref to l_a and to r_g/|r_g|;
     r_ref is chosen by `so3.reference_axis`: the bisector of l_a and l_g,
     where eq 16–18 reduce to the closed form `so3.bisector_turn`, else a
-    fixed axis. Zero when v = 0 or r_g = 0. Perpendicular to v (no work).
+    fixed axis. With `smooth` (repair (e)) the turn is `so3.smooth_turn`,
+    continuous up to l_a = −l_g. Zero when v = 0 or r_g = 0. Perpendicular
+    to v (no work).
     """
     speed, l_a = heading(v)
     distance = norm(r_g)
     if speed < TINY or distance < TINY:
         return _zero3(v)
     l_g = r_g / distance
+    if smooth:
+        return cross(smooth_turn(l_a, l_g), v) * K_omega
     turn = bisector_turn(l_a, l_g)
     if turn is not None:
         return cross(turn, v) * K_omega
@@ -233,7 +308,7 @@ def goal_terms(
     zero = _zero3(v)
     if mode == MODE_CRUISE:
         return (
-            goal_attraction_field(v, goal - p, params.K_omega),
+            goal_attraction_field(v, goal - p, params.K_omega, params.smooth_goal_turn),
             speed_control_field(v, params.K_v, params.v_d),
             zero,
         )

@@ -183,6 +183,43 @@ def bisector_turn(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray | None:
     return np.array([k * w0, k * w1, k * w2])
 
 
+# 1 + cos φ below which `smooth_turn` blends in its fixed axis (φ > ~168°).
+_OPPOSITE_BAND = 0.02
+
+
+def smooth_turn(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray:
+    """ω_ref / K_ω of eq 17–18 continuous up to opposite l_a and l_g.
+
+    `bisector_turn`'s φ u (u = l_a × l_g / |l_a × l_g|) while 1 + cos φ ≥
+    _OPPOSITE_BAND; below, the axis l_a × l_g is blended with a fixed one
+    ⟂ l_a, a = e_z × l_a (+ 0.1 e_x × l_a, for a vertical l_a), whose weight
+    grows linearly to 1 at l_a = −l_g, where the turn is π a/|a|: a level
+    turn, the same way every time. The axis stays ⟂ l_a, so ω × v does no
+    work; it is undefined only where l_a × l_g = −λ a (measure zero; there
+    the bisector form is used).
+    """
+    a, g = entries(l_a), entries(l_g)
+    a0, a1, a2 = a
+    g0, g1, g2 = g
+    w0, w1, w2 = a1 * g2 - a2 * g1, a2 * g0 - a0 * g2, a0 * g1 - a1 * g0
+    s = sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    c = a0 * g0 + a1 * g1 + a2 * g2
+    phi = atan2(s, c)
+    weight = 1.0 - (1.0 + c) / _OPPOSITE_BAND
+    if weight > 0.0:  # e_z × l_a + 0.1 e_x × l_a
+        w0, w1, w2 = (
+            w0 + weight * (-a1),
+            w1 + weight * (a0 - 0.1 * a2),
+            w2 + weight * (0.1 * a1),
+        )
+        s = sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    if s <= TINY:
+        turn = bisector_turn(l_a, l_g)
+        return turn if turn is not None else np.array([0.0 * c] * 3)
+    k = phi / s
+    return np.array([k * w0, k * w1, k * w2])
+
+
 def so3_log(R: np.ndarray) -> np.ndarray:
     """The matrix logarithm of eq 17, log R = hat(rotation_vector(R))."""
     return hat(rotation_vector(R))

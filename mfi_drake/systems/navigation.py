@@ -387,7 +387,8 @@ class UserFieldNavigator(LeafSystem):
 
     `field` gets the position, velocity and goal as 3-vectors [m, m/s, world
     frame, z up] and obstacle_points, a (k, 3) array of the seen readings'
-    r_o, nearest first; it returns F_n [N, world frame]. Its F_n leaves as
+    r_o, nearest first, plus `gains` as keyword arguments (the scenario's
+    `field_gains`, none by default); it returns F_n [N, world frame]. Its F_n leaves as
     "obstacle_force" so that a `PassThroughGoal` hands it on unchanged.
 
     .. pydrake_system::
@@ -403,11 +404,12 @@ class UserFieldNavigator(LeafSystem):
     "obstacle_force_terms": [F_n, 0] (6).
     """
 
-    def __init__(self, field, name: str, goal):
+    def __init__(self, field, name: str, goal, gains: dict | None = None):
         super().__init__()
         self.field = field
         self.field_name = name
         self.goal = np.array(goal, dtype=float)
+        self.gains = dict(gains or {})  # keyword arguments of every call
         self._last = LastResult()
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
@@ -439,7 +441,11 @@ class UserFieldNavigator(LeafSystem):
         try:
             # Copies: the user's function cannot change the diagram's values.
             force = self.field(
-                p.copy(), v.copy(), seen_points(obstacle), self.goal.copy()
+                p.copy(),
+                v.copy(),
+                seen_points(obstacle),
+                self.goal.copy(),
+                **self.gains,
             )
             force = np.asarray(force, dtype=float)
         except Exception as e:

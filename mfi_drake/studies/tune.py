@@ -1,0 +1,359 @@
+"""`mfi-drake tune`: one tuning protocol for every method.
+
+The protocol, the same for every method and fixed before any result is seen:
+
+1. Training fields: `n` random fields per density at the training seed
+   (`world.generator`), optionally with the paper's scenarios added. Every
+   method flies exactly these fields.
+2. Search over the method's documented free gains (`methods.Gain`), in the
+   unit cube of their ranges (log-uniform where a gain is a scale):
+   candidate 0 is the method's current defaults; then a Latin hypercube of
+   two thirds of the remaining candidates; then local refinement in two
+   rounds, each sampling Gaussian steps (σ = 0.15, then 0.07 of the range)
+   around the best candidate so far. Every method gets the same number of
+   candidates, so the same budget of flights: candidates × fields.
+3. Objective, lexicographic: most successes, then fewest collisions, then
+   the smallest mean path ratio (path / shortest path, to 0.001) over the
+   successful flights, then the smallest mean convergence time (to 0.01 s).
+4. The winners are written as one scenario override file (`tuned.yaml`),
+   which run, compare and sweep accept with `--override`; each method's
+   gains live in its own scenario field, so one file serves every method.
+5. Held-out evaluation: the winners flown on fields of a seed that is not a
+   training seed (refused otherwise), through the sweep.
+
+Flights run on Dask like the sweep and are appended to DIR/tune.jsonl as
+they finish; a rerun with the same arguments flies only what is missing
+(the candidates are a deterministic function of the seed and of the results
+already recorded).
+"""
+
+import dataclasses
+import json
+import math
+import os
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mfi_drake.config.scenario import Scenario, scenario_to_yaml
+from mfi_drake.files import write_json, write_text
+from mfi_drake.flight.methods import Gain, Method, resolve_method
+from mfi_drake.studies.compare import PAPER_SCENARIOS
+from mfi_drake.studies.sweep import (
+    SweepConfig,
+    append_record,
+    field_reference,
+    fly_field,
+    make_field,
+    read_results,
+    with_overrides,
+)
+from mfi_drake.world.validation import load_scenario
+
+REFINE_SIGMAS = (0.15, 0.07)  # of the unit range, one per refinement round
+
+
+class TuneError(ValueError):
+    """Tuning that cannot start (overlapping seeds, a method without gains)."""
+
+
+@dataclass
+class TuneConfig:
+    methods: list[str]
+    candidates: int = 24  # per method: the budget is candidates × fields
+    seed: int = 100  # training fields' seed; also seeds the search
+    n: int = 10  # training fields per density
+    densities: list[float] = field(default_factory=lambda: [0.1, 0.2])
+    paper_scenarios: str | None = None  # a directory: its paper scenarios join
+    held_out_seed: int | None = None  # fields never used for training
+    out: str = "out/tune"
+
+    def check(self) -> None:
+        if self.held_out_seed is not None and self.held_out_seed == self.seed:
+            raise TuneError(
+                f"--held-out-seed = {self.held_out_seed}: the held-out fields must "
+                f"not overlap the training fields (--seed = {self.seed})"
+            )
+        if self.candidates < 3:
+            raise TuneError(f"--candidates = {self.candidates}: must be ≥ 3")
+
+
+# --- the search space ---------------------------------------------------------------
+def gain_values(gains: tuple[Gain, ...], unit: np.ndarray) -> dict[str, float]:
+    """The gains at point `unit` of the unit cube (one coordinate per gain)."""
+    values: dict[str, float] = {}
+    for gain, u in zip(gains, unit, strict=True):
+        if gain.log:
+            value = gain.low * (gain.high / gain.low) ** float(u)
+        else:
+            value = gain.low + (gain.high - gain.low) * float(u)
+        if gain.fraction_of is not None:
+            value *= values[gain.fraction_of]
+        values[gain.path] = float(value)
+    return values
+
+
+def unit_point(gains: tuple[Gain, ...], values: dict[str, float]) -> np.ndarray:
+    """The inverse of `gain_values`, clipped to the unit cube."""
+    out = []
+    for gain in gains:
+        value = values[gain.path]
+        if gain.fraction_of is not None:
+            value /= values[gain.fraction_of]
+        if gain.log:
+            u = math.log(value / gain.low) / math.log(gain.high / gain.low)
+        else:
+            u = (value - gain.low) / (gain.high - gain.low)
+        out.append(min(1.0, max(0.0, u)))
+    return np.array(out)
+
+
+def latin_hypercube(rng: np.random.Generator, count: int, dims: int) -> np.ndarray:
+    """`count` points of the unit cube, one in each of `count` equal strata
+    of every coordinate, the strata paired at random."""
+    strata = np.array([rng.permutation(count) for _ in range(dims)]).T
+    return (strata + rng.random((count, dims))) / count
+
+
+def override_text(values: dict[str, float]) -> str:
+    """The YAML override that sets `values` (dotted scenario paths)."""
+    tree: dict = {}
+    for path, value in values.items():
+        *parents, leaf = path.split(".")
+        node = tree
+        for key in parents:
+            node = node.setdefault(key, {})
+        node[leaf] = value
+    return json.dumps(tree)  # JSON is YAML
+
+
+def current_values(scenario: Scenario, gains: tuple[Gain, ...]) -> dict[str, float]:
+    """The gains' values in `scenario` (the method's defaults)."""
+    values = {}
+    for gain in gains:
+        node = scenario
+        for key in gain.path.split("."):
+            if isinstance(node, dict):  # a user field's keyword arguments
+                node = node.get(key, gain.default)
+            else:
+                node = getattr(node, key)
+        values[gain.path] = float(node)
+    return values
+
+
+# --- scoring ------------------------------------------------------------------------
+def score(records: list[dict]) -> tuple:
+    """The objective of a candidate's flights, larger is better (see the
+    module docstring)."""
+    ok = [r for r in records if r["outcome"] == "success"]
+    ratios = [r["path_ratio"] for r in ok if r.get("path_ratio") is not None]
+    times = [r["convergence_time"] for r in ok]
+    # Path ratios within 0.001 (and times within 0.01 s) count as equal:
+    # finer differences are integration noise, not a better method.
+    return (
+        len(ok),
+        -sum(r["outcome"] == "collision" for r in records),
+        -round(float(np.mean(ratios)), 3) if ratios else -math.inf,
+        -round(float(np.mean(times)), 2) if times else -math.inf,
+    )
+
+
+@dataclass
+class Candidate:
+    index: int
+    values: dict[str, float]
+    records: list[dict] = field(default_factory=list)
+
+    def summary(self) -> dict:
+        s = score(self.records)
+        return {
+            "candidate": self.index,
+            "gains": self.values,
+            "flights": len(self.records),
+            "successes": s[0],
+            "collisions": -s[1],
+            "mean_path_ratio": -s[2] if math.isfinite(s[2]) else None,
+            "mean_convergence_time": -s[3] if math.isfinite(s[3]) else None,
+        }
+
+
+# --- the run ------------------------------------------------------------------------
+def training_fields(config: TuneConfig) -> list[Scenario]:
+    """The sweep's fields of the training seed (meshes under DIR/fields), and
+    the paper's scenarios if asked for."""
+    like = SweepConfig(n=config.n, seed=config.seed, out=config.out)
+    fields = [
+        make_field(like, density, index)
+        for density in config.densities
+        for index in range(config.n)
+    ]
+    if config.paper_scenarios:
+        fields += [
+            load_scenario(os.path.join(config.paper_scenarios, f"{name}.yaml"))
+            for name in PAPER_SCENARIOS
+        ]
+    return fields
+
+
+def tune(
+    config: TuneConfig, client, progress_stream=sys.stderr
+) -> dict[str, Candidate]:
+    """Tunes every method of `config` on the Dask `client`; returns the best
+    candidate of each and writes DIR/tune.jsonl, DIR/tuned.yaml and
+    DIR/tuning.md."""
+    config.check()
+    methods = {name: resolve_method(name) for name in config.methods}
+    for method in methods.values():
+        if not method.gains:
+            raise TuneError(f"--methods: {method.name!r} declares no free gains")
+    os.makedirs(config.out, exist_ok=True)
+    results_path = os.path.join(config.out, "tune.jsonl")
+    done = read_results(results_path)
+    fields = training_fields(config)
+    texts = {s.name: scenario_to_yaml(s) for s in fields}
+    references = {
+        name: client.submit(field_reference, text, key=f"tune-reference-{name}")
+        for name, text in texts.items()
+    }
+    best = {}
+    with open(results_path, "a") as results:
+        for name, method in methods.items():
+            mine = [r for r in done if r["method"] == name]
+            best[name] = _tune_method(
+                config, client, method, fields, texts, references, mine,
+                lambda record: append_record(results, record),
+                progress_stream,
+            )  # fmt: skip
+    write_text(
+        os.path.join(config.out, "tuned.yaml"),
+        _tuned_yaml(config, {n: c.values for n, c in best.items()}),
+    )
+    write_json(
+        os.path.join(config.out, "tuning.json"),
+        {
+            "config": dataclasses.asdict(config),
+            "fields": [s.name for s in fields],
+            "best": {n: c.summary() for n, c in best.items()},
+        },
+    )
+    write_text(os.path.join(config.out, "tuning.md"), tuning_table(config, best))
+    return best
+
+
+def _tune_method(
+    config: TuneConfig,
+    client,
+    method: Method,
+    fields: list[Scenario],
+    texts: dict[str, str],
+    references: dict,
+    done: list[dict],
+    record: Callable[[dict], None],
+    progress_stream,
+) -> Candidate:
+    gains = method.gains
+    rng = np.random.default_rng([config.seed, len(gains)])
+    rest = config.candidates - 1
+    first = math.ceil(2 * rest / 3)
+    rounds = [first] + _split(rest - first, len(REFINE_SIGMAS))
+    candidates = [Candidate(0, current_values(fields[0], gains))]
+    for unit in latin_hypercube(rng, first, len(gains)):
+        candidates.append(Candidate(len(candidates), gain_values(gains, unit)))
+    evaluated: list[Candidate] = []
+    for k, count in enumerate(rounds):
+        batch = candidates if k == 0 else []
+        if k > 0:  # refine around the best so far
+            centre = unit_point(gains, max(evaluated, key=_key).values)
+            for _ in range(count):
+                step = rng.normal(0.0, REFINE_SIGMAS[k - 1], len(gains))
+                unit = np.clip(centre + step, 0.0, 1.0)
+                index = len(evaluated) + len(batch)
+                batch.append(Candidate(index, gain_values(gains, unit)))
+        _evaluate(client, method, batch, fields, texts, references, done, record)
+        evaluated += batch
+        if progress_stream is not None:
+            best = max(evaluated, key=_key).summary()
+            progress_stream.write(
+                f"{method.name}: round {k + 1}/{len(rounds)}, "
+                f"{len(evaluated)} candidates, best {best['successes']}/"
+                f"{len(fields)} successes, {best['collisions']} collisions\n"
+            )
+    return max(evaluated, key=_key)
+
+
+def _key(candidate: Candidate) -> tuple:
+    # Ties (equal scores) go to the earlier candidate: the defaults first.
+    return (*score(candidate.records), -candidate.index)
+
+
+def _split(total: int, parts: int) -> list[int]:
+    return [total // parts + (i < total % parts) for i in range(parts)]
+
+
+def _evaluate(client, method, batch, fields, texts, references, done, record):
+    """Flies every candidate of `batch` on every field (those not already in
+    `done`), filling each candidate's records."""
+    from distributed import as_completed
+
+    known = {(r["candidate"], r["scenario"]): r for r in done}
+    futures = {}
+    for candidate in batch:
+        override = override_text(candidate.values)
+        for scenario in fields:
+            key = (candidate.index, scenario.name)
+            if key in known and known[key]["gains"] == candidate.values:
+                candidate.records.append(known[key])
+                continue
+            layered = with_overrides(scenario, [("tune", override)])
+            future = client.submit(
+                fly_field,
+                scenario_to_yaml(layered),
+                method.name,
+                references[scenario.name],
+                key=f"tune-{method.name}-{candidate.index}-{scenario.name}",
+            )
+            futures[future] = candidate
+    for future in as_completed(futures):
+        candidate = futures[future]
+        result = {"method": method.name, "candidate": candidate.index}
+        result |= {"gains": candidate.values} | future.result()
+        record(result)
+        candidate.records.append(result)
+
+
+def _tuned_yaml(config: TuneConfig, winners: dict[str, dict[str, float]]) -> str:
+    merged: dict[str, float] = {}
+    for values in winners.values():
+        merged |= values
+    header = (
+        f"# Written by `mfi-drake tune` (seed {config.seed}, {config.n} fields per "
+        f"density {config.densities}, {config.candidates} candidates per method):\n"
+        f"# the winning gains of {', '.join(winners)}. Use with --override.\n"
+    )
+    return header + override_text(merged) + "\n"
+
+
+def tuning_table(config: TuneConfig, best: dict[str, Candidate]) -> str:
+    lines = [
+        "# Tuning (training fields only)",
+        "",
+        f"Written by `mfi-drake tune`: {config.candidates} candidates per method, "
+        f"each flown on the same {len(next(iter(best.values())).records)} training "
+        f"fields (seed {config.seed}, densities {config.densities}"
+        + (", plus the paper's scenarios" if config.paper_scenarios else "")
+        + ").",
+        "",
+        "| method | successes | collisions | mean path ratio | gains |",
+        "|---|---|---|---|---|",
+    ]
+    for name, candidate in best.items():
+        s = candidate.summary()
+        ratio = s["mean_path_ratio"]
+        gains = ", ".join(f"{k} = {v:.4g}" for k, v in s["gains"].items())
+        lines.append(
+            f"| {name} | {s['successes']}/{s['flights']} | {s['collisions']} "
+            f"| {'–' if ratio is None else f'{ratio:.3f}'} | {gains} |"
+        )
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,161 @@
+"""`mfi-drake tune`: the same budget and training fields for every method,
+held-out seeds that must differ from the training ones, an override file
+that run accepts, and a search that finds a toy method's known best gain."""
+
+import json
+import os
+import sys
+import textwrap
+
+import distributed
+import numpy as np
+import pytest
+
+from mfi_drake import load_scenario
+from mfi_drake.app.cli import main
+from mfi_drake.flight.methods import METHODS, Gain
+from mfi_drake.studies.sweep import read_results
+from mfi_drake.studies.tune import (
+    TuneConfig,
+    TuneError,
+    gain_values,
+    latin_hypercube,
+    override_text,
+    tune,
+    unit_point,
+)
+
+from .conftest import SCENARIOS
+
+# A toy method whose best gain is known: it cruises at 1.5 − (k − 2)² m/s
+# (at least 0.3) straight to the goal, so on an empty field every k succeeds
+# with path ratio 1 and the earliest arrival, the objective's last word, is
+# at k = 2.
+TOY = textwrap.dedent(
+    """
+    import numpy as np
+
+    def cruise(position, velocity, obstacle_points, goal, k=1.0):
+        to_goal = goal - position
+        distance = np.linalg.norm(to_goal)
+        speed = max(0.3, 1.5 - (k - 2.0) ** 2) * min(1.0, distance)
+        wanted = speed * to_goal / max(distance, 1e-9)
+        return 3.0 * (wanted - velocity)
+
+    cruise.gains = {"k": (0.5, 4.0)}
+    """
+)
+
+
+@pytest.fixture
+def toy_dir(tmp_path, monkeypatch):
+    (tmp_path / "toy.py").write_text(TOY)
+    monkeypatch.chdir(tmp_path)
+    path, modules = list(sys.path), dict(sys.modules)
+    yield tmp_path
+    sys.path[:] = path
+    for name in set(sys.modules) - set(modules):
+        del sys.modules[name]
+
+
+@pytest.fixture(scope="module")
+def client():
+    with distributed.Client(
+        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
+    ) as client:
+        yield client
+
+
+def test_gain_points_round_trip_and_fractions_stay_below():
+    gains = METHODS["gf"].gains
+    rng = np.random.default_rng(0)
+    for unit in latin_hypercube(rng, 20, len(gains)):
+        values = gain_values(gains, unit)
+        np.testing.assert_allclose(unit_point(gains, values), unit, atol=1e-12)
+        assert values["gf.rho_0"] < values["gf.r_d"]  # ρ₀ < r_d, as GF needs
+        for gain in gains:
+            if gain.fraction_of is None:
+                assert gain.low <= values[gain.path] <= gain.high
+
+
+def test_latin_hypercube_has_one_point_in_every_stratum():
+    points = latin_hypercube(np.random.default_rng(3), 8, 4)
+    for column in points.T:
+        assert sorted(np.floor(column * 8).astype(int)) == list(range(8))
+
+
+def test_override_text_layers_onto_a_scenario():
+    text = override_text({"navigator.c": 2.5, "gf.attraction.k_att": 1.25})
+    scenario = load_scenario(
+        os.path.join(SCENARIOS, "planar_wall.yaml"), [("tune", text)]
+    )
+    assert scenario.navigator.c == 2.5 and scenario.gf.attraction.k_att == 1.25
+    assert scenario.navigator.r_l == 1.5  # untouched
+
+
+def test_same_budget_and_fields_for_every_method_and_toy_optimum(toy_dir, client):
+    config = TuneConfig(
+        methods=["toy:cruise", "gf"],
+        candidates=9,
+        seed=100,
+        n=2,
+        densities=[0.0],
+        out=str(toy_dir / "tune"),
+    )
+    best = tune(config, client, progress_stream=None)
+    records = read_results(str(toy_dir / "tune" / "tune.jsonl"))
+    flown = {
+        m: sorted(r["scenario"] for r in records if r["method"] == m) for m in best
+    }
+    # Every method: candidates × fields flights, on the same fields.
+    assert all(len(v) == 9 * 2 for v in flown.values())
+    assert flown["toy:cruise"] == flown["gf"]
+    # The toy's optimum is k = 2 (cruise at 1.5 m/s); 9 candidates of a
+    # 1-D search over [0.5, 4] get within 0.25 of it.
+    assert best["toy:cruise"].values["field_gains.k"] == pytest.approx(2.0, abs=0.25)
+    # Candidate 0 is each method's defaults (GF's scenario gains).
+    first_gf = [r for r in records if r["method"] == "gf" and r["candidate"] == 0]
+    assert first_gf[0]["gains"]["gf.k_g"] == 32.0
+    # A rerun flies nothing new and finds the same winners.
+    again = tune(config, client, progress_stream=None)
+    assert len(read_results(str(toy_dir / "tune" / "tune.jsonl"))) == len(records)
+    assert {m: c.values for m, c in again.items()} == {
+        m: c.values for m, c in best.items()
+    }
+    # The override file is accepted by run, and flies the winning gain.
+    tuned = toy_dir / "tune" / "tuned.yaml"
+    out = toy_dir / "run"
+    scenario = os.path.join(SCENARIOS, "planar_wall.yaml")
+    args = ["run", scenario, "--method", "toy:cruise", "--override", str(tuned)]
+    assert main([*args, "--out", str(out), "--set", "obstacles: []"]) == 0
+    layered = load_scenario(scenario, [(str(tuned), tuned.read_text())])
+    assert layered.field_gains == {"k": best["toy:cruise"].values["field_gains.k"]}
+    assert layered.gf.k_g == best["gf"].values["gf.k_g"]
+
+
+def test_overlapping_held_out_seed_is_refused(tmp_path, capsys):
+    args = ["tune", "--seed", "7", "--held-out-seed", "7", "--out", str(tmp_path)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--held-out-seed = 7" in err
+    assert not any(tmp_path.iterdir())
+    with pytest.raises(TuneError):
+        TuneConfig(methods=["mfi"], seed=3, held_out_seed=3).check()
+
+
+def test_a_method_without_gains_is_refused(toy_dir, client):
+    (toy_dir / "plain.py").write_text(
+        "def field(position, velocity, obstacle_points, goal):\n    return 0 * goal\n"
+    )
+    config = TuneConfig(methods=["plain:field"], out=str(toy_dir / "t"))
+    with pytest.raises(TuneError, match="declares no free gains"):
+        tune(config, client, progress_stream=None)
+
+
+def test_every_builtin_method_declares_gains_with_valid_ranges():
+    for method in METHODS.values():
+        assert method.gains, method.name
+        for gain in method.gains:
+            assert isinstance(gain, Gain) and 0 < gain.low < gain.high
+            assert gain.path.split(".")[0] == method.parameters
+    assert json.loads(override_text({"a.b": 1.0})) == {"a": {"b": 1.0}}
