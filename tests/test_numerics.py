@@ -11,10 +11,11 @@ purpose, since uniform random floats would almost never hit them.
 """
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from mfi_drake.config.parameters import ApfParams, GfParams, NavigatorParams
+from mfi_drake.config.parameters import ApfParams, GfParams, NavigatorParams, paper_form
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.maths import baselines, fields, so3
 from mfi_drake.maths.faults import corrupt_reading, rotor_lag_rate, sample_rng
@@ -29,6 +30,10 @@ from mfi_drake.maths.quadcopter import (
 )
 
 P = NavigatorParams()
+# Every variant of MFI: the default (every repair on) and the paper's form.
+VARIANTS = pytest.mark.parametrize(
+    "params", [P, paper_form(P)], ids=["repaired", "paper"]
+)
 P_YAW = NavigatorParams(yaw_follows_motion=True)
 APF = ApfParams()
 GF = GfParams()
@@ -127,32 +132,37 @@ def assert_zero_work(F, v):
 
 
 # --- fields (§IV) -------------------------------------------------------------
+@VARIANTS
 @FAST
 @given(configurations(), st.sampled_from([0.0, 1.0]))
 @example((np.array([1.0, 0, 0]), np.array([0.5, 0, 0]), np.zeros(3)), 1.0)
 @example((np.array([1.0, 0, 0]), np.array([RADIUS, 0, 0]), np.array([-5.0, 0, 0])), 1)
 @example((np.zeros(3), np.array([0.3, 0, 0]), np.zeros(3)), 1.0)
-def test_obstacle_field_is_finite_and_does_no_work(config, seen):
+def test_obstacle_field_is_finite_and_does_no_work(params, config, seen):
     v, r_o, r_g = config
-    F, F_a = fields.obstacle_field(v, r_o, seen, r_g, RADIUS, P)
+    F, F_a = fields.obstacle_field(v, r_o, seen, r_g, RADIUS, params)
     assert_finite(F, F_a)
     assert_zero_work(F, v)
     assert_zero_work(F_a, v)
 
 
+@pytest.mark.parametrize("continuous", [False, True])
 @FAST
 @given(configurations())
-def test_artificial_current_is_finite_tangent_and_never_zero_head_on(config):
+def test_artificial_current_is_finite_tangent_and_never_zero_head_on(
+    continuous, config
+):
     v, r_o, r_g = config
     speed, l_a = fields.heading(v)
     distance = np.linalg.norm(r_o)
     if speed < so3.TINY or distance < so3.TINY:
         return  # obstacle_field never calls it there
     n = r_o / distance
-    l_o = fields.artificial_current(l_a, n, r_g, P.tangent_blend)
+    l_o = fields.artificial_current(l_a, n, r_g, P.tangent_blend, continuous)
     assert_finite(l_o)
     assert abs(l_o @ n) <= 1e-9
-    if l_a @ n > 0.0:  # approaching: |l_o|² ≥ |eq 11's l_o|² + (blend − it)²
+    if l_a @ n > 0.0 and not continuous:
+        # approaching: |l_o|² ≥ |eq 11's l_o|² + (blend − it)²
         assert np.linalg.norm(l_o) >= P.tangent_blend / np.sqrt(2.0) - 1e-9
 
 
@@ -165,24 +175,26 @@ def test_fallback_tangent_is_a_unit_tangent(n, r_g):
     assert abs(t @ n) < 1e-9
 
 
+@pytest.mark.parametrize("smooth", [False, True])
 @FAST
 @given(configurations(), st.sampled_from([0.0, 1.5, 1e3]))
 @example((np.array([1.0, 0, 0]), np.zeros(3), np.array([-3.0, 0, 0])), 1.5)
 @example((np.array([1.0, 0, 0]), np.zeros(3), np.array([3.0, 1e-13, 0])), 1.5)
 @example((np.array([0, 0, -2.0]), np.zeros(3), np.array([0, 0, 4.0])), 1.5)
-def test_goal_attraction_is_finite_and_does_no_work(config, K_omega):
+def test_goal_attraction_is_finite_and_does_no_work(smooth, config, K_omega):
     v, _, r_g = config
-    F_gc = fields.goal_attraction_field(v, r_g, K_omega)
+    F_gc = fields.goal_attraction_field(v, r_g, K_omega, smooth)
     assert_finite(F_gc)
     assert_zero_work(F_gc, v)
 
 
+@VARIANTS
 @FAST
 @given(configurations(), vectors, st.sampled_from([fields.MODE_PD, fields.MODE_CRUISE]))
-def test_goal_terms_and_guards_are_finite(config, p, mode):
+def test_goal_terms_and_guards_are_finite(params, config, p, mode):
     v, _, r_g = config
     goal = p + r_g
-    F_gc, F_v, F_pd = fields.goal_terms(mode, p, v, goal, P)
+    F_gc, F_v, F_pd = fields.goal_terms(mode, p, v, goal, params)
     assert_finite(F_gc, F_v, F_pd)
     assert np.linalg.norm(F_pd) <= P.max_pd_force * (1 + 1e-12)
     assert np.linalg.norm(np.cross(F_v, v)) <= 1e-9 * max(

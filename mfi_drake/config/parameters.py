@@ -35,13 +35,16 @@ class NavigatorParams:
     the paper's eq 12 also pulls a vehicle receding from an obstacle that is
     not in its way back toward it."""
     continuous_side: bool = True
-    """(b) The head-on tangent of eq 11 is a continuous function of n and the
-    goal (`fields.continuous_tangent`), instead of a side chosen by the sign
-    of l_o, which flips with a 1e-9 change of heading."""
-    project_others: bool = True
+    """(b) Head-on, eq 11's current is lengthened along a tangent whose side
+    turns over continuously in a thin band (`fields.artificial_current`),
+    instead of flipping with the sign of l_o (a 1e-9 change of heading gave
+    a ±1.7 N jump)."""
+    project_others: bool = False
     """(c) Every obstacle but the nearest contributes only the part of its
-    field that does not push toward the nearest one (in the plane ⟂ v), so
-    the sum keeps the nearest obstacle's boundary following (§IV-A)."""
+    boundary following (eq 12) that does not push toward the nearest one (in
+    the plane ⟂ v), so the sum keeps the nearest obstacle's boundary
+    following (§IV-A); every obstacle's collision avoidance (eq 14) counts.
+    Off by default: it raised collisions in the ablations (docs/comparison.md)."""
     hover_fade: bool = True
     """(d) F_a (eq 14) fades linearly below fade_speed: its direction follows
     that of v whatever |v|, so near hover it turns velocity noise into force."""

@@ -93,13 +93,16 @@ def artificial_current(
 ) -> np.ndarray:
     """Eq 11: l_o = l_a − (l_a·n) n, the heading projected on the surface.
 
-    Head-on (l_a·n > 0 and |l_o| < blend) the current is blended with a
-    deterministic tangent t: l_o + (blend − |l_o|) t, which equals eq 11 at
-    |l_o| = blend. The paper's form takes `fallback_tangent` signed to agree
-    with l_o (never zero, but its side flips with the sign of l_o);
-    `continuous` takes `continuous_tangent` unsigned, so l_o is continuous
-    in l_a, n and the goal. Receding from the obstacle, eq 11 is used as it
-    is.
+    Head-on (l_a·n > 0 and |l_o| < blend) the current is lengthened along a
+    deterministic tangent: l_o + (blend − |l_o|) d, which equals eq 11 at
+    |l_o| = blend. The paper's form takes d = ±`fallback_tangent` (the goal's
+    side, else horizontal), signed to agree with l_o: never zero, but its
+    side flips with the sign of l_o·t however small l_o is (a 1e-9 change of
+    heading). `continuous` takes d = σ t, t = `continuous_tangent` and σ =
+    clip((l_o·t + blend/20) / (blend/10), −1, 1): the same side as the paper
+    outside a band |l_o·t + blend/20| < blend/10, and continuous across it.
+    The current is never zero: where σ = 0, |l_o| ≥ blend/20.
+    Receding from the obstacle, eq 11 is used as it is.
     """
     along = dot(l_a, n)
     l_o = l_a - along * n
@@ -107,11 +110,13 @@ def artificial_current(
     if along > 0.0 and size < blend:
         if continuous:
             t = continuous_tangent(n, r_g)
+            side = (dot(l_o, t) + 0.05 * blend) / (0.1 * blend)
+            d = t * min(1.0, max(-1.0, side))
         else:
-            t = fallback_tangent(n, r_g)
-            if dot(l_o, t) < 0.0:
-                t = -t
-        l_o = l_o + (blend - size) * t
+            d = fallback_tangent(n, r_g)
+            if dot(l_o, d) < 0.0:
+                d = -d
+        l_o = l_o + (blend - size) * d
     return l_o
 
 
@@ -207,9 +212,11 @@ def superposed(field, v, obstacle, r_g, collision_radius: float, params):
     The fields of separate surface currents add: each obstacle contributes
     eq 11–15 with its own closest point. With `params.project_others`
     (repair (c); MFI's parameters only), every obstacle after the nearest
-    loses the part of its terms that pushes toward the nearest one, m = the
-    nearest's n made ⟂ v: both terms stay ⟂ v (zero work), and the nearest
-    obstacle's own field decides whether the heading turns toward it.
+    loses the part of its first term (MFI: eq 12's boundary following) that
+    pushes toward the nearest one, m = the nearest's n made ⟂ v: the term
+    stays ⟂ v (zero work), and only the nearest obstacle's own field turns
+    the heading toward it. The second terms (eq 14's collision avoidance)
+    are all kept: each guards against its own obstacle, also in a gap.
     """
     A = B = _zero3(v)
     nearest = True
@@ -220,8 +227,8 @@ def superposed(field, v, obstacle, r_g, collision_radius: float, params):
         A_i, B_i = field(v, r_o, seen, r_g, collision_radius, params)
         if nearest and getattr(params, "project_others", False):
             m = _toward_across(r_o, v)
-        elif m is not None:
-            A_i, B_i = without_push_toward(A_i, m), without_push_toward(B_i, m)
+        elif m is not None:  # boundary following only: each B_i guards its own
+            A_i = without_push_toward(A_i, m)
         nearest = False
         A, B = A + A_i, B + B_i
     return A, B

@@ -1,0 +1,144 @@
+"""The repairs of MFI's field (NavigatorParams (a)–(e)), each against the
+paper's literal form on a hand-built configuration, and the symmetric
+two-sphere layout that made the paper's form chatter."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from mfi_drake import simulate
+from mfi_drake.config.parameters import NavigatorParams, paper_form
+from mfi_drake.config.scenario import Obstacle, Scenario, Sphere
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.maths import fields
+from mfi_drake.maths.layout import obstacle_signal
+
+R = VEHICLES["drake_default"].collision_radius
+REPAIRED = NavigatorParams()
+PAPER = paper_form(REPAIRED)
+EX, EY, EZ = np.eye(3)
+
+
+def only(**repairs) -> NavigatorParams:
+    """The paper's form with the named repairs on."""
+    return dataclasses.replace(PAPER, **repairs)
+
+
+def test_a_boundary_following_acts_only_on_obstacles_in_the_way():
+    v = np.array([1.0, -0.3, 0.0])  # receding from an obstacle on its left
+    r_o = (0.5 + R) * EY
+    params = only(follow_blocking_only=True)
+    goal_ahead = 10.0 * EX
+    F_paper, _ = fields.obstacle_field(v, r_o, 1.0, goal_ahead, R, PAPER)
+    F, _ = fields.obstacle_field(v, r_o, 1.0, goal_ahead, R, params)
+    assert np.linalg.norm(F_paper) > 0.5 and np.allclose(F, 0.0)  # pulled back
+    # The same obstacle between the vehicle and the goal: followed as before.
+    goal_behind = 10.0 * EY + 2.0 * EX
+    F_paper, _ = fields.obstacle_field(v, r_o, 1.0, goal_behind, R, PAPER)
+    F, _ = fields.obstacle_field(v, r_o, 1.0, goal_behind, R, params)
+    np.testing.assert_allclose(F, F_paper)
+    # Approaching: unchanged.
+    v_in = np.array([1.0, 0.3, 0.0])
+    np.testing.assert_allclose(
+        fields.obstacle_field(v_in, r_o, 1.0, goal_ahead, R, params)[0],
+        fields.obstacle_field(v_in, r_o, 1.0, goal_ahead, R, PAPER)[0],
+    )
+
+
+def test_b_the_head_on_side_is_continuous_in_the_heading():
+    n = EX
+    goal = 10.0 * EX  # straight behind the obstacle: no goal side
+    currents = {}
+    for name, continuous in (("paper", False), ("repaired", True)):
+        currents[name] = [
+            fields.artificial_current(
+                (EX + s * 1e-9 * EY) / np.linalg.norm(EX + s * 1e-9 * EY),
+                n,
+                goal,
+                REPAIRED.tangent_blend,
+                continuous,
+            )
+            for s in (-1.0, 1.0)
+        ]
+    paper, repaired = currents["paper"], currents["repaired"]
+    # The paper's side flips with a 2e-9 change of heading; the repair's does not.
+    assert np.linalg.norm(paper[0] - paper[1]) == pytest.approx(
+        2 * REPAIRED.tangent_blend, rel=1e-6
+    )
+    # Continuous: Lipschitz, with a slope of blend / (blend / 10) = 10.
+    assert np.linalg.norm(repaired[0] - repaired[1]) < 20 * 2e-9
+    # Away from exact head-on both go round the side the vehicle heads for.
+    l_a = (EX + 0.05 * EY) / np.linalg.norm(EX + 0.05 * EY)
+    for continuous in (False, True):
+        l_o = fields.artificial_current(l_a, n, goal, 0.3, continuous)
+        assert l_o @ EY > 0.0 and abs(l_o @ n) < 1e-12
+
+
+def test_c_other_obstacles_never_push_toward_the_nearest():
+    # The issue's case: moving +x along obstacle 1 (on the right, r = 0.4),
+    # obstacle 2 ahead-left at r = 1.0.
+    v = np.array([1.0, 0.0, 0.0])
+    r_1 = -(0.4 + R) * EY
+    r_2 = (1.0 + R) * np.array([np.cos(0.5), np.sin(0.5), 0.0])
+    signal = obstacle_signal([r_1, r_2])
+    goal = 10.0 * EX
+    alone = sum(fields.obstacle_field(v, r_1, 1.0, goal, R, PAPER))
+    paper = sum(fields.superposed(fields.obstacle_field, v, signal, goal, R, PAPER))
+    params = only(project_others=True)
+    projected = fields.superposed(fields.obstacle_field, v, signal, goal, R, params)
+    assert alone @ EY > 0.5  # obstacle 1 alone turns away from it
+    assert paper @ EY < 0.0  # the paper's sum turns toward it
+    assert sum(projected) @ EY >= alone @ EY - 1e-12  # the repair does not
+    for term in projected:  # and does no work
+        assert abs(term @ v) < 1e-12
+
+
+def test_d_avoidance_fades_at_hover():
+    r_o = (0.3 + R) * EY
+    goal = 10.0 * EX
+    for speed in (0.03, 0.15, 0.3, 1.0):
+        v = speed * np.array([0.6, 0.8, 0.0])
+        _, F_a_paper = fields.obstacle_field(v, r_o, 1.0, goal, R, PAPER)
+        _, F_a = fields.obstacle_field(v, r_o, 1.0, goal, R, only(hover_fade=True))
+        scale = min(1.0, speed / REPAIRED.fade_speed)
+        np.testing.assert_allclose(F_a, scale * F_a_paper, atol=1e-15)
+    assert np.linalg.norm(F_a_paper) > 0.1
+
+
+def test_e_goal_attraction_has_no_jump_near_opposite_headings():
+    r_g = 5.0 * EX
+    # Sweep the heading through the bisector's cut-off (|l_a + l_g| = 0.1,
+    # about 174.3°) and on to opposite, in fine steps.
+    angles = np.linspace(np.radians(170.0), np.radians(180.0), 20001)
+    jumps = {}
+    for smooth in (False, True):
+        forces = [
+            fields.goal_attraction_field(
+                np.array([np.cos(a), np.sin(a), 0.1 * np.sin(a)]), r_g, 1.5, smooth
+            )
+            for a in angles
+        ]
+        jumps[smooth] = max(np.linalg.norm(np.diff(forces, axis=0), axis=1))
+    assert jumps[False] > 1.0  # the paper's r_ref switch: a newton-sized jump
+    assert jumps[True] < 1e-2  # the repair: steps of the order of the sweep's
+    F = fields.goal_attraction_field(-EX, r_g, 1.5, True)  # exactly opposite
+    assert np.linalg.norm(F) > 1.0 and abs(F @ EX) < 1e-12
+
+
+@pytest.mark.parametrize("offset", [1e-9, -1e-9, 0.0])
+def test_symmetric_two_spheres_fly_in_a_bounded_number_of_steps(offset):
+    # A vehicle aimed exactly between two equal spheres, the aim off by
+    # `offset`: no chattering side choice, so the integrator's steps stay few.
+    scenario = Scenario(
+        start=[0.0, offset, 1.5],
+        goal=[10.0, 0.0, 1.5],
+        duration=15.0,
+        obstacles=[
+            Obstacle(shape=Sphere(radius=1.5), position=[4.0, y, 1.5])
+            for y in (2.0, -2.0)
+        ],
+    )
+    metrics = simulate(scenario).metrics
+    assert metrics["success"]
+    assert metrics["steps"] < 1500
