@@ -1,8 +1,11 @@
-"""Shared fixtures: paths to the shipped scenarios and a YAML writer."""
+"""Shared fixtures: paths to the shipped scenarios, a YAML writer, a current
+directory for a user's module, and an in-process Dask client."""
 
 import os
+import sys
 import textwrap
 
+import distributed
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -19,3 +22,24 @@ def write_yaml(tmp_path):
         return str(path)
 
     return write
+
+
+@pytest.fixture
+def module_dir(tmp_path, monkeypatch):
+    """tmp_path as the current directory, where a test writes a user's
+    module; the import path and the modules imported are restored after."""
+    monkeypatch.chdir(tmp_path)
+    path, modules = list(sys.path), dict(sys.modules)
+    yield tmp_path
+    sys.path[:] = path
+    for name in set(sys.modules) - set(modules):
+        del sys.modules[name]
+
+
+@pytest.fixture(scope="module")
+def threads_client():
+    """A Dask client of one in-process worker thread."""
+    with distributed.Client(
+        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
+    ) as client:
+        yield client

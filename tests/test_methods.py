@@ -58,15 +58,10 @@ USER_MODULE = textwrap.dedent(
 
 
 @pytest.fixture
-def user_dir(tmp_path, monkeypatch):
-    """The current directory holds my_nav.py; the import is undone after."""
-    (tmp_path / "my_nav.py").write_text(USER_MODULE)
-    monkeypatch.chdir(tmp_path)
-    path, modules = list(sys.path), dict(sys.modules)
-    yield tmp_path
-    sys.path[:] = path
-    for name in set(sys.modules) - set(modules):
-        del sys.modules[name]
+def user_dir(module_dir):
+    """The current directory holds my_nav.py."""
+    (module_dir / "my_nav.py").write_text(USER_MODULE)
+    return module_dir
 
 
 def _short(scenario: Scenario, duration: float) -> Scenario:

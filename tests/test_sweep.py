@@ -9,7 +9,6 @@ import math
 import os
 import sys
 
-import distributed
 import numpy as np
 import pytest
 
@@ -198,14 +197,6 @@ def test_median_interval_uses_ranks_40_and_61_of_100():
 def _short(scenario: sc.Scenario) -> sc.Scenario:
     """A 1.5 s flight: cheap, and a timeout (the goal is 10 m away)."""
     return dataclasses.replace(scenario, duration=1.5)
-
-
-@pytest.fixture(scope="module")
-def threads_client():
-    with distributed.Client(
-        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
-    ) as client:
-        yield client
 
 
 def test_rerun_after_a_kill_flies_only_the_rest(tmp_path, threads_client):

@@ -4,10 +4,8 @@ that run accepts, and a search that finds a toy method's known best gain."""
 
 import json
 import os
-import sys
 import textwrap
 
-import distributed
 import numpy as np
 import pytest
 
@@ -48,22 +46,9 @@ TOY = textwrap.dedent(
 
 
 @pytest.fixture
-def toy_dir(tmp_path, monkeypatch):
-    (tmp_path / "toy.py").write_text(TOY)
-    monkeypatch.chdir(tmp_path)
-    path, modules = list(sys.path), dict(sys.modules)
-    yield tmp_path
-    sys.path[:] = path
-    for name in set(sys.modules) - set(modules):
-        del sys.modules[name]
-
-
-@pytest.fixture(scope="module")
-def client():
-    with distributed.Client(
-        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
-    ) as client:
-        yield client
+def toy_dir(module_dir):
+    (module_dir / "toy.py").write_text(TOY)
+    return module_dir
 
 
 def test_gain_points_round_trip_and_fractions_stay_below():
@@ -93,7 +78,9 @@ def test_override_text_layers_onto_a_scenario():
     assert scenario.navigator.r_l == 1.5  # untouched
 
 
-def test_same_budget_and_fields_for_every_method_and_toy_optimum(toy_dir, client):
+def test_same_budget_and_fields_for_every_method_and_toy_optimum(
+    toy_dir, threads_client
+):
     config = TuneConfig(
         methods=["toy:cruise", "gf"],
         candidates=9,
@@ -102,7 +89,7 @@ def test_same_budget_and_fields_for_every_method_and_toy_optimum(toy_dir, client
         densities=[0.0],
         out=str(toy_dir / "tune"),
     )
-    best = tune(config, client, progress_stream=None)
+    best = tune(config, threads_client, progress_stream=None)
     records = read_results(str(toy_dir / "tune" / "tune.jsonl"))
     flown = {
         m: sorted(r["scenario"] for r in records if r["method"] == m) for m in best
@@ -117,7 +104,7 @@ def test_same_budget_and_fields_for_every_method_and_toy_optimum(toy_dir, client
     first_gf = [r for r in records if r["method"] == "gf" and r["candidate"] == 0]
     assert first_gf[0]["gains"]["gf.k_g"] == 32.0
     # A rerun flies nothing new and finds the same winners.
-    again = tune(config, client, progress_stream=None)
+    again = tune(config, threads_client, progress_stream=None)
     assert len(read_results(str(toy_dir / "tune" / "tune.jsonl"))) == len(records)
     assert {m: c.values for m, c in again.items()} == {
         m: c.values for m, c in best.items()
@@ -143,13 +130,13 @@ def test_overlapping_held_out_seed_is_refused(tmp_path, capsys):
         TuneConfig(methods=["mfi"], seed=3, held_out_seed=3).check()
 
 
-def test_a_method_without_gains_is_refused(toy_dir, client):
+def test_a_method_without_gains_is_refused(toy_dir, threads_client):
     (toy_dir / "plain.py").write_text(
         "def field(position, velocity, obstacle_points, goal):\n    return 0 * goal\n"
     )
     config = TuneConfig(methods=["plain:field"], out=str(toy_dir / "t"))
     with pytest.raises(TuneError, match="declares no free gains"):
-        tune(config, client, progress_stream=None)
+        tune(config, threads_client, progress_stream=None)
 
 
 def test_every_builtin_method_declares_gains_with_valid_ranges():
