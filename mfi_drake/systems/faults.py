@@ -20,6 +20,8 @@ size). Sample k of a stream is drawn from a generator seeded by
 (seed, stream, k), so a flight is a pure function of its scenario.
 """
 
+import copy
+
 import numpy as np
 from pydrake.systems.framework import BasicVector_, DiagramBuilder, LeafSystem_
 from pydrake.systems.primitives import Gain
@@ -48,13 +50,21 @@ def SensorFaults_(T):
         samples held in discrete state; the output is the oldest sample
         ("nothing seen" until the first sample has come through).
 
-        Input: "obstacle" (true; `size` values, see `maths.layout`).
-        Output: "obstacle" (corrupted).
+        .. pydrake_system::
+
+            name: SensorFaults
+            input_ports:
+            - obstacle
+            output_ports:
+            - obstacle
+
+        Input "obstacle": the true reading (`size` values, `maths.layout`);
+        output "obstacle": the corrupted one.
         """
 
         def _construct(self, faults: Faults, size: int, converter=None):
             LeafSystem_[T].__init__(self, converter)
-            self.faults = faults
+            self.faults = copy.deepcopy(faults)
             self.size = size
             self._input = self.DeclareVectorInputPort("obstacle", size)
             self.DeclareDiscreteState((delay_samples(faults) + 1) * size)
@@ -100,12 +110,20 @@ def StateEstimateError_(T):
         `estimate_error` drawn every 1/sample_rate s and held (zero before
         the first draw).
 
-        Input: "state" (12, true). Output: "estimate" (12).
+        .. pydrake_system::
+
+            name: StateEstimateError
+            input_ports:
+            - state
+            output_ports:
+            - estimate
+
+        "state": the true 12-vector; "estimate": what the controller sees.
         """
 
         def _construct(self, faults: Faults, converter=None):
             LeafSystem_[T].__init__(self, converter)
-            self.faults = faults
+            self.faults = copy.deepcopy(faults)
             self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
             self.DeclareDiscreteState(STATE_SIZE)
             self.DeclarePeriodicDiscreteUpdateEvent(
@@ -147,7 +165,15 @@ def MotorLag_(T):
         state u (4) starts at `initial` (the hover command, so a flight that
         starts at rest starts in equilibrium).
 
-        Input: "command" u_cmd (4). Output: "propeller_force" u (4).
+        .. pydrake_system::
+
+            name: MotorLag
+            input_ports:
+            - command
+            output_ports:
+            - propeller_force
+
+        "command": u_cmd (4); "propeller_force": u (4), the state.
         """
 
         def _construct(self, tau_up, tau_down, initial, converter=None):
@@ -155,15 +181,8 @@ def MotorLag_(T):
             self.tau_up, self.tau_down = float(tau_up), float(tau_down)
             self.initial = np.asarray(initial, dtype=float)
             self._command = self.DeclareVectorInputPort("command", ROTORS)
-            self.DeclareContinuousState(BasicVector_[T](self.initial))
-            self.DeclareVectorOutputPort(
-                "propeller_force",
-                ROTORS,
-                lambda context, out: out.SetFromVector(
-                    context.get_continuous_state_vector().CopyToVector()
-                ),
-                prerequisites_of_calc={self.xc_ticket()},
-            )
+            state = self.DeclareContinuousState(BasicVector_[T](self.initial))
+            self.DeclareStateOutputPort("propeller_force", state)
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(
