@@ -31,6 +31,7 @@ from mfi_drake.studies.sweep import (
     SweepConfig,
     dask_client,
     fault_variant,
+    rate_cell,
     run_sweep,
     with_faults,
 )
@@ -73,14 +74,9 @@ LEVELS: dict[str, tuple[str, list[tuple[float, Faults]]]] = {
 }
 
 
-def _rate(stats: dict, outcome: str) -> str:
-    rate, ci = stats[f"{outcome}_rate"], stats[f"{outcome}_rate_ci95"]
-    return f"{rate:.2f} [{ci[0]:.2f}, {ci[1]:.2f}]"
-
-
 def _row(name: str, level: str, stats: dict, broken: bool) -> str:
     n = stats["n"]
-    cells = [_rate(stats, "success"), _rate(stats, "collision")]
+    cells = [rate_cell(stats, "success"), rate_cell(stats, "collision")]
     cells += [f"{round(stats[f'{o}_rate'] * n)}" for o in ("timeout", "error")]
     mark = " **breaks**" if broken else ""
     return f"| {name} | {level}{mark} | {n} | {' | '.join(cells)} |"

@@ -245,7 +245,8 @@ def summarize(config: SweepConfig, records: list[dict]) -> dict:
     }
 
 
-def _rate(stats: dict, outcome: str) -> str:
+def rate_cell(stats: dict, outcome: str) -> str:
+    """ "rate [low, high]" of an outcome (95 % Wilson interval), "–" if none."""
     rate, ci = stats[f"{outcome}_rate"], stats[f"{outcome}_rate_ci95"]
     if rate is None:
         return "–"
@@ -274,8 +275,9 @@ def summary_table(summary: dict) -> str:
                 f" ({s['error_rate'] * s['n']:.0f} errors)" if s["error_rate"] else ""
             )
             lines.append(
-                f"| {method} | {density} | {s['n']}{errors} | {_rate(s, 'success')} "
-                f"| {_rate(s, 'collision')} | {_rate(s, 'timeout')} | {median} "
+                f"| {method} | {density} | {s['n']}{errors} "
+                f"| {rate_cell(s, 'success')} | {rate_cell(s, 'collision')} "
+                f"| {rate_cell(s, 'timeout')} | {median} "
                 f"| {_num(s['p90_path_ratio'], 3)} "
                 f"| {_num(s['median_convergence_time'], 1)} |"
             )
