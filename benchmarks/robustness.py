@@ -1,7 +1,7 @@
 """How far MFI's success survives each imperfection of `mfi_drake.faults`.
 
     python benchmarks/robustness.py [--n 100] [--methods mfi] [--workers 2]
-                                    [--out out/robustness]
+                                    [--only TEXT] [--out out/robustness]
 
 For each imperfection and each of its levels (LEVELS, from none to past the
 point where it breaks) this flies the Monte Carlo sweep (`sweep.run_sweep`,
@@ -107,7 +107,9 @@ def robustness_table(results: dict, methods: list[str]) -> str:
         ]
         verdicts = []
         for name, (unit, _) in LEVELS.items():
-            levels = [(level, stats[method]) for level, stats in results.get(name, [])]
+            if name not in results:  # not flown (--only)
+                continue
+            levels = [(level, stats[method]) for level, stats in results[name]]
             broken = break_point(clean, levels)
             for level, stats in levels:
                 lines.append(
@@ -131,11 +133,17 @@ def main() -> None:
     parser.add_argument("--methods", default="mfi", help="comma-separated")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="out/robustness")
+    parser.add_argument(
+        "--only",
+        help="fly only the imperfections whose name contains this text "
+        "(e.g. 'state estimate'), besides the fault-free cell",
+    )
     args = parser.parse_args()
     methods = args.methods.split(",")
     cells = [("none", None, None)] + [
         (name, level, faults)
         for name, (_, levels) in LEVELS.items()
+        if args.only is None or args.only in name
         for level, faults in levels
     ]
     results: dict = {}
