@@ -1,17 +1,26 @@
-"""How fast the depth-camera flights of paper Fig 11 run.
+"""How fast the depth-camera flights of paper Fig 11 run, and what a frame
+costs.
 
     python benchmarks/depth_speed.py [--repeats 3]
 
 For scenarios/pelican_cylinder.yaml and pelican_cube.yaml, flown as
-`mfi-drake run` flies them (`simulation.simulate`), prints the best wall
-time of Initialize + AdvanceTo over --repeats and its real-time factor, the
-best process CPU time of the whole `simulate` call (building the diagram and
-the metrics included, so an upper bound on the flight's) and its real-time
-factor, the frames the camera rendered and the integrator steps; then the
-same flight with the sphere sensor (radius = the camera's max_range)
-instead, so the camera's share of the cost shows. The machine's other load
-shows up in the wall time as noise, hence the best of several runs and the
-CPU time beside it.
+`mfi-drake run` flies them (`simulation.simulate`):
+
+1. the best wall time of Initialize + AdvanceTo over --repeats and its
+   real-time factor, the best process CPU time of the whole `simulate` call
+   (building the diagram and the metrics included, so an upper bound on the
+   flight's) and its real-time factor, the frames and integrator steps; then
+   the same flight with the sphere sensor (radius = the camera's max_range)
+   instead, so the camera's share shows;
+2. the cost of one frame, split, replaying the camera flight's states at its
+   frame times through the diagram's own systems: render (the RgbdSensor's
+   depth image, VTK), cloud (DepthImageToPointCloud), thin
+   (`CameraModel.view`), memory (`perception.fuse`), segmentation
+   (`perception.read`: surface links, voxel graph, local minima); and the
+   reading between frames (`Groups.nearest`), per evaluation.
+
+The machine's other load shows up in the wall time as noise, hence the best
+of several runs and the CPU time beside it.
 """
 
 import argparse
@@ -19,12 +28,19 @@ import dataclasses
 import os
 import time
 
+import numpy as np
+from pydrake.math import RigidTransform, RollPitchYaw
+
 from mfi_drake.config.scenario import Scenario, SphereSensor
+from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import Flight, simulate
+from mfi_drake.maths.layout import OBSTACLE_COUNT
+from mfi_drake.maths.perception import Percept, fuse, read
 from mfi_drake.world.validation import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENARIOS = ["pelican_cylinder.yaml", "pelican_cube.yaml"]
+PIECES = ["render", "cloud", "thin", "memory", "segmentation"]
 
 
 def best_of(scenario: Scenario, repeats: int) -> tuple[Flight, float]:
@@ -50,6 +66,57 @@ def line(label: str, flight: Flight, cpu: float) -> str:
     )
 
 
+def frame_costs(flight: Flight) -> dict[str, float]:
+    """Mean CPU time [µs] of each piece of a frame, and of one reading, over
+    the frames of `flight` replayed from its logged states."""
+    scenario = flight.scenario
+    built = build_diagram(scenario)
+    context = built.diagram.CreateDefaultContext()
+    plant = built.plant.GetMyMutableContextFromRoot(context)
+    sensor = built.sensor
+    (camera,) = sensor.cameras
+    rgbd = built.diagram.GetSubsystemByName("rgbd_sensor_0")
+    cloud_system = built.diagram.GetSubsystemByName("point_cloud_0")
+    rgbd_context = rgbd.GetMyContextFromRoot(context)
+    cloud_context = cloud_system.GetMyContextFromRoot(context)
+    rate = scenario.sensor.rate_hz
+    frames = np.arange(0.0, flight.times[-1], 1.0 / rate)
+    samples = np.searchsorted(flight.times, frames - 1e-9)
+    spent = dict.fromkeys([*PIECES, "reading"], 0.0)
+    percept = Percept.empty()
+
+    def timed(piece: str, function, *args):
+        start = time.process_time()
+        result = function(*args)
+        spent[piece] += time.process_time() - start
+        return result
+
+    for t, k in zip(frames, samples, strict=True):
+        x = flight.log["state"][k]
+        plant.SetContinuousState(x)
+        depth = timed("render", rgbd.depth_image_32F_output_port().Eval, rgbd_context)
+        cloud = timed(
+            "cloud", cloud_system.point_cloud_output_port().Eval, cloud_context
+        )
+        X_WB = RigidTransform(RollPitchYaw(x[3], x[4], x[5]), x[:3])
+        view = timed("thin", camera.view, X_WB, cloud, depth)
+        memory = timed(
+            "memory",
+            fuse,
+            percept.memory,
+            [view],
+            t,
+            x[:3],
+            scenario.sensor.memory_s,
+            camera.max_range,
+        )
+        percept = timed(
+            "segmentation", read, memory, [view.frame], x[:3], OBSTACLE_COUNT
+        )
+        timed("reading", percept.basins.nearest, x[:3])
+    return {piece: 1e6 * total / len(frames) for piece, total in spent.items()}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
@@ -63,11 +130,18 @@ def main() -> None:
             f"{scenario.name}: depth camera {camera.width}x{camera.height}, "
             f"{camera.rate_hz:g} frames/s (best of {args.repeats})"
         )
-        print(line("depth", *best_of(scenario, args.repeats)))
+        flight, cpu = best_of(scenario, args.repeats)
+        print(line("depth", flight, cpu))
         sphere = dataclasses.replace(
             scenario, sensor=SphereSensor(radius=camera.max_range)
         )
         print(line("sphere", *best_of(sphere, args.repeats)))
+        costs = frame_costs(flight)
+        split = ", ".join(f"{piece} {costs[piece]:.0f}" for piece in PIECES)
+        print(
+            f"  per frame [µs CPU]: {split}; total {sum(costs[p] for p in PIECES):.0f}"
+            f"; a reading between frames {costs['reading']:.0f}"
+        )
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ from mfi_drake.app.figures import plot_flights  # noqa: E402
 from mfi_drake.files import atomic_path  # noqa: E402
 from mfi_drake.flight.diagram import build_diagram  # noqa: E402
 from mfi_drake.flight.simulation import simulate  # noqa: E402
-from mfi_drake.systems.camera import camera_info, pixel_rays  # noqa: E402
+from mfi_drake.systems.camera import camera_info  # noqa: E402
 from mfi_drake.world.validation import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -75,25 +75,15 @@ def depth_view() -> None:
     x = np.zeros(12)
     x[0:3] = scenario.start
     flight.plant.GetMyMutableContextFromRoot(context).SetContinuousState(x)
-    rgbd = flight.diagram.GetSubsystemByName("rgbd_sensor")
-    depth = np.array(
-        rgbd.depth_image_32F_output_port().Eval(rgbd.GetMyContextFromRoot(context)).data
-    )[:, :, 0]
+    cloud = flight.diagram.GetSubsystemByName("point_cloud_0")
+    xyz = cloud.point_cloud_output_port().Eval(cloud.GetMyContextFromRoot(context))
     # The camera sits at the vehicle centre here, so the distance of each
     # return from the camera is its distance from the vehicle: its minimum is
     # the closest point r_o the navigator gets.
     info = camera_info(scenario.sensor)
-    rays = pixel_rays(
-        info.width(),
-        info.height(),
-        info.focal_x(),
-        info.focal_y(),
-        info.center_x(),
-        info.center_y(),
-    )
-    distance = depth * np.linalg.norm(rays, axis=1).reshape(depth.shape)
+    distance = np.linalg.norm(xyz.xyzs(), axis=0).reshape(info.height(), info.width())
     closest = np.unravel_index(
-        np.argmin(np.where(np.isfinite(distance), distance, np.inf)), depth.shape
+        np.argmin(np.where(np.isfinite(distance), distance, np.inf)), distance.shape
     )
     fig, ax = plt.subplots(figsize=(6, 4.2))
     image = ax.imshow(np.ma.masked_invalid(distance), cmap="viridis_r")

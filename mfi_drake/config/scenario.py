@@ -20,6 +20,7 @@ import typing
 from dataclasses import dataclass, field
 
 import yaml
+from pydrake.common.schema import Transform
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from pydrake.systems.analysis import SimulatorConfig
 
@@ -93,21 +94,62 @@ class SphereSensor:
 
 
 @dataclass
-class DepthCamera:
-    """An on-board depth camera (paper §VI-B), fixed to the body, looking +x."""
+class CameraImage:
+    """The depth image of an on-board camera (square pixels, principal point
+    at the centre)."""
 
     width: int = 160  # pixels
     height: int = 120  # pixels
     fov_y_deg: float = 60.0  # vertical field of view, degrees
     max_range: float = 6.0  # m; farther pixels are "no return"
+
+
+MEMORY_S = 2.0  # s, default of T (docs/depth_camera.md, "Memory")
+
+
+@dataclass
+class DepthCamera(CameraImage):
+    """An on-board depth camera (paper §VI-B), fixed to the body, looking +x:
+    a rig of one camera."""
+
     rate_hz: float = 30.0  # frames per second
     # The camera's pose on the body: optical centre in the body frame [m] and
     # orientation [deg] (zero: looking along body +x, image up = body +z).
     position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    memory_s: float = MEMORY_S  # s, T: how long a seen point is remembered
 
 
-Sensor = SphereSensor | DepthCamera
+def looking_forward() -> Transform:
+    """X_BC of a camera at the body origin looking along body +x, image up =
+    body +z (C: Drake's camera frame, +z along the view, +x image right)."""
+    X_BC = Transform()
+    X_BC.set_rotation_rpy_deg([-90.0, 0.0, -90.0])
+    return X_BC
+
+
+@dataclass
+class RigCamera(CameraImage):
+    """A camera of a `DepthCameraRig`, posed as Drake poses a camera:
+    X_BC: {translation: [x, y, z], rotation: !Rpy {deg: [r, p, y]}}, the
+    camera frame C (+z along the view, +x image right, +y image down) in the
+    body frame B. Default: `looking_forward`."""
+
+    X_BC: Transform = field(default_factory=looking_forward)
+
+
+@dataclass
+class DepthCameraRig:
+    """Depth cameras on the body, rendering together at rate_hz; what they
+    see is fused into one memory and one reading."""
+
+    cameras: list[RigCamera] = field(default_factory=lambda: [RigCamera()])
+    rate_hz: float = 30.0  # frames per second, every camera
+    memory_s: float = MEMORY_S  # s, T: how long a seen point is remembered
+
+
+Sensor = SphereSensor | DepthCamera | DepthCameraRig
+Cameras = DepthCamera | DepthCameraRig  # the sensors that render depth images
 
 
 def default_simulator_config() -> SimulatorConfig:
@@ -171,21 +213,44 @@ def _check_positive(where, name, value):
 MIN_DEPTH = 0.02  # m; a depth camera's closer pixels come back as "too close"
 
 
-def _check_camera(where: str, camera: DepthCamera) -> None:
-    for name in ("width", "height"):
-        value = getattr(camera, name)
+def _check_image(where: str, name: str, camera: CameraImage) -> None:
+    """`name`: the camera's path in the scenario, e.g. "sensor.cameras[1]"."""
+    for size in ("width", "height"):
+        value = getattr(camera, size)
         if not isinstance(value, int) or value <= 0:
-            fail(where, f"sensor.{name}", value, "must be a whole number > 0")
+            fail(where, f"{name}.{size}", value, "must be a whole number > 0")
     fov = camera.fov_y_deg
-    _check_positive(where, "sensor.fov_y_deg", fov)
+    _check_positive(where, f"{name}.fov_y_deg", fov)
     if fov >= 180.0:
-        fail(where, "sensor.fov_y_deg", fov, "must be < 180")
-    _check_positive(where, "sensor.max_range", camera.max_range)
+        fail(where, f"{name}.fov_y_deg", fov, "must be < 180")
+    _check_positive(where, f"{name}.max_range", camera.max_range)
     if camera.max_range <= MIN_DEPTH:
-        fail(where, "sensor.max_range", camera.max_range, f"must be > {MIN_DEPTH}")
-    _check_positive(where, "sensor.rate_hz", camera.rate_hz)
-    _check_vector(where, "sensor.position", camera.position)
-    _check_vector(where, "sensor.rpy_deg", camera.rpy_deg)
+        fail(where, f"{name}.max_range", camera.max_range, f"must be > {MIN_DEPTH}")
+
+
+def _check_camera_pose(where: str, name: str, X_BC: Transform) -> None:
+    if X_BC.base_frame is not None:
+        fail(where, f"{name}.base_frame", X_BC.base_frame, "must be left out (body)")
+    if not X_BC.IsDeterministic():
+        fail(where, name, X_BC, "must be one fixed pose")
+    pose = X_BC.GetDeterministicValue()
+    if not all(math.isfinite(x) for x in pose.GetAsMatrix4().ravel()):
+        fail(where, name, X_BC, "must hold finite numbers")
+
+
+def _check_cameras(where: str, sensor: Cameras) -> None:
+    _check_positive(where, "sensor.rate_hz", sensor.rate_hz)
+    _check_positive(where, "sensor.memory_s", sensor.memory_s)
+    if isinstance(sensor, DepthCamera):
+        _check_image(where, "sensor", sensor)
+        _check_vector(where, "sensor.position", sensor.position)
+        _check_vector(where, "sensor.rpy_deg", sensor.rpy_deg)
+        return
+    if not sensor.cameras:
+        fail(where, "sensor.cameras", sensor.cameras, "must hold a camera")
+    for i, camera in enumerate(sensor.cameras):
+        _check_image(where, f"sensor.cameras[{i}]", camera)
+        _check_camera_pose(where, f"sensor.cameras[{i}].X_BC", camera.X_BC)
 
 
 def mesh_path(scenario: Scenario, shape: Convex) -> str:
@@ -221,8 +286,8 @@ def check_scenario(scenario: Scenario, where: str) -> None:
         fail(where, "vehicle", scenario.vehicle, f"must be one of {sorted(VEHICLES)}")
     if isinstance(scenario.sensor, SphereSensor):
         _check_positive(where, "sensor.radius", scenario.sensor.radius)
-    elif isinstance(scenario.sensor, DepthCamera):
-        _check_camera(where, scenario.sensor)
+    elif isinstance(scenario.sensor, Cameras):
+        _check_cameras(where, scenario.sensor)
     else:
         fail(where, "sensor", scenario.sensor, "unknown sensor")
     for key in ("navigator", "mfi_paper"):
@@ -273,6 +338,7 @@ def _check_schema(data, schema, where: str, name: str) -> None:
     yaml_load_typed."""
     shown = name or "scenario"
     if not dataclasses.is_dataclass(schema):
+        _check_drake_keys(data, schema, where, name)
         return
     if not isinstance(data, dict):
         fail(where, shown, data, f"must be a mapping of {schema.__name__} fields")
@@ -284,6 +350,17 @@ def _check_schema(data, schema, where: str, name: str) -> None:
         if key not in hints or key == "base_dir":
             fail(where, field_name, value, f"unknown field of {schema.__name__}")
         _check_value(value, hints[key], where, field_name)
+
+
+def _check_drake_keys(data, schema, where: str, name: str) -> None:
+    """A key that a Drake config class (e.g. a Transform) does not have is
+    reported with its field path; its values are left to yaml_load_typed."""
+    known = {f.name for f in getattr(schema, "__fields__", ())}
+    if known and isinstance(data, dict):
+        for key, value in data.items():
+            if key != "_tag" and key not in known:
+                reason = f"unknown field of {schema.__name__}"
+                fail(where, f"{name}.{key}", value, reason)
 
 
 def _check_value(value, hint, where: str, name: str) -> None:

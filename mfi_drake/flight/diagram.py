@@ -18,11 +18,11 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
 
 from mfi_drake.config.faults import Faults
-from mfi_drake.config.scenario import DepthCamera, Scenario, SphereSensor
+from mfi_drake.config.scenario import Cameras, Scenario, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES, Vehicle
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
-from mfi_drake.systems.camera import add_depth_camera
+from mfi_drake.systems.camera import add_depth_cameras
 from mfi_drake.systems.control import AttitudePD, RotorMixer
 from mfi_drake.systems.faults import (
     add_rotor_faults,
@@ -86,11 +86,10 @@ def add_sensor(
     geometry: VehicleGeometry,
 ):
     """Adds the scenario's sensor, named "sensor", whose output port
-    "obstacle" carries readings [r_o, seen] (see `maths.layout`)."""
-    if isinstance(scenario.sensor, DepthCamera):
-        return add_depth_camera(
-            builder, scenario.sensor, scene_graph, plant.get_output_port(0), geometry
-        )
+    "obstacle" carries readings [r_o, seen] (see `maths.layout`). A camera
+    rig's "state" input is left for `build_diagram` to connect."""
+    if isinstance(scenario.sensor, Cameras):
+        return add_depth_cameras(builder, scenario.sensor, scene_graph, geometry)
     if not isinstance(scenario.sensor, SphereSensor):
         raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
     sensor = builder.AddNamedSystem(
@@ -110,11 +109,12 @@ def connect_controller(
     attitude,
     mixer,
     faults: Faults | None = None,
-) -> None:
+):
     """Closes the loop: plant state → navigator (its "obstacle" input from
     `obstacle_port`, a sensor's or, in `flight.analysis_diagram`, a constant source's) →
     selector → attitude PD → mixer → plant, through the state-estimate error
-    and rotor faults of `faults` when they are on."""
+    and rotor faults of `faults` when they are on. Returns the port of the
+    state estimate the controller reads."""
     faults = faults or Faults()
     state = add_state_estimate(builder, faults, plant.get_output_port(0))
     builder.Connect(state, navigator.GetInputPort("state"))
@@ -139,6 +139,7 @@ def connect_controller(
         mixer.GetOutputPort("propeller_force"),
     )
     builder.Connect(rotors, plant.get_input_port(0))
+    return state
 
 
 def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightDiagram:
@@ -168,7 +169,7 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
     selector = builder.AddNamedSystem("selector", method.goal_attraction(scenario))
     attitude = builder.AddNamedSystem("attitude_pd", AttitudePD(vehicle, params))
     mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
-    connect_controller(
+    estimate = connect_controller(
         builder,
         plant,
         add_sensor_faults(builder, scenario.faults, sensor.GetOutputPort("obstacle")),
@@ -178,6 +179,9 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
         mixer,
         scenario.faults,
     )
+    if isinstance(scenario.sensor, Cameras):
+        # The cameras' memory is placed with the estimate, as on board.
+        builder.Connect(estimate, sensor.GetInputPort("state"))
 
     mux = builder.AddNamedSystem(
         "log_mux", Multiplexer([size for _, size, _, _ in LOG_LAYOUT])

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
-from mfi_drake.config.scenario import DepthCamera, Scenario
+from mfi_drake.config.scenario import Cameras, Scenario
 from mfi_drake.flight.diagram import FlightDiagram, build_diagram
 from mfi_drake.flight.methods import Method
 from mfi_drake.maths.layout import POSITION, STATE_SIZE
@@ -91,7 +91,7 @@ def fly(flight: FlightDiagram) -> Flight:
     context = simulator.get_mutable_context()
     wall_time, cpu_time = run_timed(simulator, scenario.duration)
     integrator = simulator.get_integrator()
-    depth = isinstance(scenario.sensor, DepthCamera)
+    depth = isinstance(scenario.sensor, Cameras)
     frames = None
     if flight.diagram.HasOutputPort("frames_rendered"):
         port = flight.diagram.GetOutputPort("frames_rendered")

@@ -1,19 +1,26 @@
-"""The on-board depth camera of the Pelican runs (paper §VI-B).
+"""The on-board depth cameras (paper §VI-B) and the perception that turns
+their images into the navigator's "obstacle" reading.
 
-Drake's `RgbdSensor`, fixed to the vehicle's body frame, renders a depth
-image with the VTK engine (headless, EGL). `DepthCameraSensor` back-projects
-its pixels into a point cloud, keeps the point closest to the vehicle centre
-and feeds the navigator the same "obstacle" signal as the sphere sensor
-(see `maths.layout`), with that one point as its only reading (the cloud is not
-split into obstacles). Pixels beyond max_range are "no return"; an
-image without returns means nothing is seen, and nothing seen earlier is
-remembered.
+For camera i of the scenario's rig (`DepthCamera` is a rig of one):
 
-The camera renders at its own rate: a periodic discrete update evaluates the
-depth image, which is the only place it is evaluated, and holds the closest
-point (world frame) until the next frame. Between frames the output is
-r_o = p_o − p(t): the held point seen from the vehicle's current position.
+    SceneGraph ──query──▶ RgbdSensor "rgbd_sensor_i" ──depth──▶ DepthImageToPointCloud
+                              │ depth_image_i                      "point_cloud_i"
+                              ▼                                        │ point_cloud_i
+    state estimate ──▶ DepthCameraSensor "sensor" ◀────────────────────┘
+                              │ obstacle
+                              ▼ navigator
+
+The RgbdSensor renders with VTK (headless, EGL) from the body frame's true
+pose; the obstacles carry the perception role, the vehicle's own shapes do
+not. Drake's DepthImageToPointCloud back-projects the image in the camera
+frame. `DepthCameraSensor` places that cloud in the world with the
+controller's state estimate, as an on-board computer would, and keeps the
+percept of `maths.perception` (memory, segments) in abstract state, updated
+at the rig's rate; between frames the reading is that percept seen from the
+estimated position.
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -27,100 +34,70 @@ from pydrake.geometry import (
     SceneGraph,
 )
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.perception import DepthImageToPointCloud, PointCloud
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.sensors import CameraInfo, ImageDepth32F, RgbdSensor
 
-from mfi_drake.config.scenario import MIN_DEPTH, DepthCamera
+from mfi_drake.config.scenario import MIN_DEPTH, CameraImage, Cameras, DepthCamera
 from mfi_drake.maths.layout import (
+    OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,
     POSITION,
     STATE_SIZE,
     obstacle_signal,
 )
+from mfi_drake.maths.perception import Intrinsics, Percept, Thinning, View, perceive
 from mfi_drake.systems.sensors import VehicleGeometry
 
 RENDERER = "vtk"
 NEAR_CLIP = 0.01  # m, the renderer's near clipping plane
 
 # Drake's camera frame C looks along +z with +x to the image's right and +y
-# down. The scenario gives the camera's orientation for a "look" frame L that,
-# like the body, has +x forward and +z up; R_LC maps one to the other.
+# down. `DepthCamera` gives the camera's orientation for a "look" frame L
+# that, like the body, has +x forward and +z up; R_LC maps one to the other.
 R_LC = RotationMatrix(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]))
 
 
-def camera_pose_on_body(camera: DepthCamera) -> RigidTransform:
-    """X_BC: the camera frame C on the body B from the scenario's position and
+@dataclass(frozen=True)
+class MountedCamera:
+    """A camera's image and its pose X_BC on the body."""
+
+    image: CameraImage
+    X_BC: RigidTransform
+
+
+def mounted_cameras(sensor: Cameras) -> list[MountedCamera]:
+    """The rig's cameras. A `DepthCamera` is one, posed by position and
     rpy_deg (zero rpy: looking along the body's +x, image up = body +z)."""
-    R_BL = RollPitchYaw(np.radians(camera.rpy_deg)).ToRotationMatrix()
-    return RigidTransform(R_BL @ R_LC, np.asarray(camera.position, float))
+    if isinstance(sensor, DepthCamera):
+        R_BL = RollPitchYaw(np.radians(sensor.rpy_deg)).ToRotationMatrix()
+        X_BC = RigidTransform(R_BL @ R_LC, np.asarray(sensor.position, float))
+        return [MountedCamera(sensor, X_BC)]
+    return [MountedCamera(c, c.X_BC.GetDeterministicValue()) for c in sensor.cameras]
 
 
-def camera_info(camera: DepthCamera) -> CameraInfo:
+def camera_info(camera: CameraImage) -> CameraInfo:
     """Square pixels, principal point at the image centre."""
     return CameraInfo(camera.width, camera.height, np.radians(camera.fov_y_deg))
 
 
-def pixel_rays(
-    width: int,
-    height: int,
-    focal_x: float,
-    focal_y: float,
-    center_x: float,
-    center_y: float,
-) -> np.ndarray:
-    """(height·width, 3) rays in the camera frame, row-major like the image,
-    scaled so that their z is 1: pixel (u, v) at depth z is the point
-    z · [(u − c_x)/f_x, (v − c_y)/f_y, 1] (pinhole back-projection)."""
-    u, v = np.meshgrid(np.arange(width), np.arange(height))
-    rays = np.stack(
-        [(u - center_x) / focal_x, (v - center_y) / focal_y, np.ones(u.shape)], axis=-1
-    )
-    return rays.reshape(-1, 3)
+def unit_rays(info: CameraInfo) -> np.ndarray:
+    """(3, height·width) the pixels' rays with z = 1, row-major: Drake's
+    DepthImageToPointCloud of an image at depth 1 (so the projection model
+    is Drake's own)."""
+    converter = DepthImageToPointCloud(info)
+    context = converter.CreateDefaultContext()
+    image = ImageDepth32F(info.width(), info.height(), 1.0)
+    converter.depth_image_input_port().FixValue(context, image)
+    return converter.point_cloud_output_port().Eval(context).xyzs().astype(float)
 
 
-def closest_return(
-    depth: np.ndarray, rays: np.ndarray, R_WC: np.ndarray, p_WC: np.ndarray, p
-) -> np.ndarray:
-    """[p_o (3), seen]: the world point of the depth image closest to p
-    (the paper's reading: the point cloud is not split into obstacles).
+class CameraModel:
+    """What the perception keeps of a mounted camera (a copy)."""
 
-    depth holds z-depths [m] (inf: no return; 0: closer than MIN_DEPTH, taken
-    as MIN_DEPTH). Each return is back-projected, z·ray, and moved to the
-    world by the camera pose (R_WC, p_WC). Without returns: zeros, seen 0.
-    """
-    z = np.asarray(depth, float).reshape(-1)
-    hit = np.isfinite(z)
-    if not hit.any():
-        return np.zeros(4)
-    z = np.maximum(z[hit], MIN_DEPTH)
-    points_W = (z[:, None] * rays[hit]) @ np.asarray(R_WC).T + p_WC
-    closest = np.argmin(np.sum((points_W - p) ** 2, axis=1))
-    return np.append(points_W[closest], 1.0)
-
-
-class DepthCameraSensor(LeafSystem):
-    """Closest point of the depth camera's point cloud, held between frames.
-
-    .. pydrake_system::
-
-        name: DepthCameraSensor
-        input_ports:
-        - depth_image
-        - camera_pose
-        - state
-        output_ports:
-        - obstacle
-        - frames_rendered
-
-    "depth_image": ImageDepth32F; "camera_pose": X_WC, a RigidTransform;
-    "state": the plant's 12-vector. "obstacle": one reading [p_o − p, seen],
-    the others unseen; "frames_rendered": frames rendered so far (a state).
-    Discrete state: the held [p_o, seen] and the number of frames rendered.
-    """
-
-    def __init__(self, info: CameraInfo, rate_hz: float):
-        super().__init__()
-        self._rays = pixel_rays(
+    def __init__(self, camera: MountedCamera):
+        info = camera_info(camera.image)
+        self.intrinsics = Intrinsics(
             info.width(),
             info.height(),
             info.focal_x(),
@@ -128,86 +105,163 @@ class DepthCameraSensor(LeafSystem):
             info.center_x(),
             info.center_y(),
         )
-        self._depth = self.DeclareAbstractInputPort(
-            "depth_image", AbstractValue.Make(ImageDepth32F())
+        self.X_BC = RigidTransform(camera.X_BC)
+        self.max_range = float(camera.image.max_range)
+        # The vehicle centre (body origin) in C.
+        self.thinning = Thinning(
+            unit_rays(info),
+            info.width(),
+            info.height(),
+            self.X_BC.inverse().translation(),
         )
-        self._pose = self.DeclareAbstractInputPort(
-            "camera_pose", AbstractValue.Make(RigidTransform())
+
+    def view(self, X_WB: RigidTransform, cloud: PointCloud, depth) -> View:
+        """The frame of this camera's `cloud` (camera frame) and `depth`
+        image (ImageDepth32F), thinned and placed with the body pose X_WB."""
+        X_WC = X_WB @ self.X_BC
+        z = depth.data[:, :, 0]
+        return View(
+            self.thinning(cloud.xyzs(), z),
+            X_WC.rotation().matrix(),
+            X_WC.translation(),
+            self.intrinsics,
+            z,
+            self.max_range,
         )
+
+
+class DepthCameraSensor(LeafSystem):
+    """The rig's depth images → the k nearest obstacles' closest points.
+
+    .. pydrake_system::
+
+        name: DepthCameraSensor
+        input_ports:
+        - depth_image_0
+        - point_cloud_0
+        - ...
+        - state
+        output_ports:
+        - obstacle
+        - frames_rendered
+
+    Per camera i: "depth_image_i", an ImageDepth32F, and "point_cloud_i",
+    its DepthImageToPointCloud cloud in the camera frame. "state": the
+    controller's state estimate (12), which places the clouds in the world
+    and the vehicle in the memory. "obstacle": OBSTACLE_COUNT readings
+    [r_o, seen], nearest first (`maths.layout`); "frames_rendered": images
+    rendered so far. Abstract state: the `Percept`, updated every 1/rate_hz
+    s from t = 0 (`perceive`); discrete state: the image count.
+    """
+
+    def __init__(self, cameras: list[MountedCamera], rate_hz: float, memory_s: float):
+        super().__init__()
+        self.cameras = [CameraModel(camera) for camera in cameras]
+        self._memory_s = float(memory_s)
+        # Remembered points farther than any camera sees are forgotten.
+        self._reach = max(c.max_range for c in self.cameras)
+        self._images = [
+            self.DeclareAbstractInputPort(
+                f"depth_image_{i}", AbstractValue.Make(ImageDepth32F())
+            )
+            for i in range(len(cameras))
+        ]
+        self._clouds = [
+            self.DeclareAbstractInputPort(
+                f"point_cloud_{i}", AbstractValue.Make(PointCloud())
+            )
+            for i in range(len(cameras))
+        ]
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
-        self._held = self.DeclareDiscreteState(4)
+        self._percept = self.DeclareAbstractState(AbstractValue.Make(Percept.empty()))
         self._frames = self.DeclareDiscreteState(1)
         self.DeclareStateOutputPort("frames_rendered", self._frames)
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate_hz, 0.0, self._render)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate_hz, 0.0, self._frame)
         self.DeclareVectorOutputPort(
             "obstacle",
             OBSTACLE_SIGNAL_SIZE,
             self._calc,
             prerequisites_of_calc={
-                self.discrete_state_ticket(self._held),
+                self.abstract_state_ticket(self._percept),
                 self._state.ticket(),
             },
         )
 
-    def sense(self, context) -> np.ndarray:
-        """Renders one frame now and returns [p_o, seen] (world frame)."""
-        depth = self._depth.Eval(context).data
-        X_WC = self._pose.Eval(context)
-        p = self._state.Eval(context)[POSITION]
-        return closest_return(
-            depth, self._rays, X_WC.rotation().matrix(), X_WC.translation(), p
-        )
+    def percept(self, context) -> Percept:
+        """The percept held in this system's `context`."""
+        return context.get_abstract_state(self._percept).get_value()
 
-    def _frame_count(self, context) -> int:
-        return int(context.get_discrete_state(self._frames).GetAtIndex(0))
-
-    def _render(self, context, discrete_state):
-        discrete_state.get_mutable_vector(self._held).SetFromVector(self.sense(context))
-        discrete_state.get_mutable_vector(self._frames).SetAtIndex(
-            0, self._frame_count(context) + 1.0
+    def _frame(self, context, state):
+        """Renders every camera now and updates the percept."""
+        x = self._state.Eval(context)
+        X_WB = RigidTransform(
+            RollPitchYaw(x[3], x[4], x[5]).ToRotationMatrix(), x[POSITION]
         )
+        views = [
+            camera.view(X_WB, cloud.Eval(context), image.Eval(context))
+            for camera, image, cloud in zip(
+                self.cameras, self._images, self._clouds, strict=True
+            )
+        ]
+        percept = perceive(
+            self.percept(context),
+            views,
+            context.get_time(),
+            x[POSITION].copy(),
+            self._memory_s,
+            self._reach,
+            OBSTACLE_COUNT,
+        )
+        state.get_mutable_abstract_state(self._percept).set_value(percept)
+        frames = state.get_mutable_discrete_state(self._frames)
+        frames.SetAtIndex(0, frames.GetAtIndex(0) + len(self.cameras))
 
     def _calc(self, context, output):
-        held = context.get_discrete_state(self._held).get_value()
-        if held[3] <= 0.5:
-            output.SetFromVector(obstacle_signal([]))
-            return
         p = self._state.Eval(context)[POSITION]
-        output.SetFromVector(obstacle_signal([held[:3] - p]))
+        output.SetFromVector(obstacle_signal(self.percept(context).basins.nearest(p)))
 
 
-def add_depth_camera(
+def add_depth_cameras(
     builder: DiagramBuilder,
-    camera: DepthCamera,
+    sensor: Cameras,
     scene_graph: SceneGraph,
-    state_port,
     geometry: VehicleGeometry,
 ) -> DepthCameraSensor:
-    """Adds the VTK renderer, an RgbdSensor on the vehicle's body frame and the
-    DepthCameraSensor "sensor" fed by it; returns the latter."""
+    """Adds the VTK renderer and, per camera of the rig, an RgbdSensor on the
+    vehicle's body frame and a DepthImageToPointCloud, all feeding the
+    DepthCameraSensor "sensor"; returns the latter. Its "state" input is
+    left for the caller to connect to the controller's state estimate."""
     scene_graph.AddRenderer(RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
-    info = camera_info(camera)
-    core = RenderCameraCore(
-        RENDERER,
-        info,
-        ClippingRange(NEAR_CLIP, 1.5 * camera.max_range),
-        RigidTransform(),
+    cameras = mounted_cameras(sensor)
+    perception = builder.AddNamedSystem(
+        "sensor",
+        DepthCameraSensor(cameras, sensor.rate_hz, sensor.memory_s),
     )
-    rgbd = builder.AddNamedSystem(
-        "rgbd_sensor",
-        RgbdSensor(
-            geometry.frame_id,
-            camera_pose_on_body(camera),
-            DepthRenderCamera(core, DepthRange(MIN_DEPTH, camera.max_range)),
-        ),
-    )
-    builder.Connect(scene_graph.get_query_output_port(), rgbd.query_object_input_port())
-    sensor = builder.AddNamedSystem("sensor", DepthCameraSensor(info, camera.rate_hz))
-    builder.Connect(
-        rgbd.depth_image_32F_output_port(), sensor.GetInputPort("depth_image")
-    )
-    builder.Connect(
-        rgbd.body_pose_in_world_output_port(), sensor.GetInputPort("camera_pose")
-    )
-    builder.Connect(state_port, sensor.GetInputPort("state"))
-    return sensor
+    for i, camera in enumerate(cameras):
+        info = camera_info(camera.image)
+        core = RenderCameraCore(
+            RENDERER,
+            info,
+            ClippingRange(NEAR_CLIP, 1.5 * camera.image.max_range),
+            RigidTransform(),
+        )
+        rgbd = builder.AddNamedSystem(
+            f"rgbd_sensor_{i}",
+            RgbdSensor(
+                geometry.frame_id,
+                camera.X_BC,
+                DepthRenderCamera(core, DepthRange(MIN_DEPTH, camera.image.max_range)),
+            ),
+        )
+        builder.Connect(
+            scene_graph.get_query_output_port(), rgbd.query_object_input_port()
+        )
+        cloud = builder.AddNamedSystem(f"point_cloud_{i}", DepthImageToPointCloud(info))
+        depth = rgbd.depth_image_32F_output_port()
+        builder.Connect(depth, cloud.depth_image_input_port())
+        builder.Connect(depth, perception.GetInputPort(f"depth_image_{i}"))
+        builder.Connect(
+            cloud.point_cloud_output_port(),
+            perception.GetInputPort(f"point_cloud_{i}"),
+        )
+    return perception

@@ -1,0 +1,409 @@
+"""Obstacle readings from depth images: the depth camera's perception as plain
+numpy, so that each step can be tested alone (docs/depth_camera.md).
+
+Each frame of a camera, with the vehicle's estimated pose, becomes readings
+in four steps:
+
+1. `Thinning`: each BLOCK×BLOCK block of pixels keeps the one return nearest the
+   vehicle centre. The samples are measured points (not averages), and the
+   closest seen point of every obstacle survives unless a nearer obstacle
+   shares its block.
+2. `remember`: the memory holds samples in the world frame with the time
+   they were seen. A frame clears every remembered sample it shows free
+   space at, or sees again, along that sample's pixel (`seen_again`); the
+   memory also drops samples older than T and those farther from the
+   vehicle than the cameras reach. The frame's samples then join it.
+3. `voxel_graph`: the memory's occupied voxels (VOXEL), neighbours in the
+   26-neighbourhood and also where neighbouring blocks of the new frame lie
+   on one surface (`surface_links`: a wall seen edge-on is sampled ever
+   more sparsely with range, but stays one surface).
+4. `nearest_basins`: an obstacle is a local minimum of the distance to the
+   vehicle on that graph; the readings are the nearest sample of each of
+   the nearest minima, nearest first (the reading of `layout`), re-read
+   from that minimum's voxel as the vehicle moves until the next frame.
+
+Frames: C is Drake's camera frame (+z along the view, +x image right, +y
+image down); the depth image holds z-depths (inf: no return within range;
+0: closer than the camera's minimum depth). Lengths in metres.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+BLOCK = 4  # pixels per side of the blocks a frame is thinned to
+# Voxel edge [m]: samples within one voxel edge of each other (per axis) are
+# always joined, up to two edges possibly. Gaps that small are narrower than
+# either vehicle (collision diameter ≥ 0.45 m), so nothing is lost by
+# treating the obstacles on both sides as one.
+VOXEL = 0.2
+# Neighbouring blocks are one surface when they fit a plane at least this far
+# from the camera [m]: below the collision radius of either vehicle, so any
+# wall the vehicle can be beside without touching qualifies.
+SURFACE_DISTANCE = 0.2
+# A remembered sample within this distance [m] in front of or behind the
+# measured depth along its pixel counts as seen again (covers the pixel's
+# footprint at a grazing view and the pose estimate's drift between frames).
+DEPTH_MARGIN = 0.1
+
+# Voxel keys: three indices packed into one int64 (±2^20 voxels a side).
+_KEY_BITS = 21
+_KEY_OFFSET = 1 << (_KEY_BITS - 1)
+# The 13 neighbours of the 26-neighbourhood that come after a voxel in key
+# order; each pair of neighbours is looked up once, from its first voxel.
+_NEIGHBOURS = np.array(
+    [
+        (dx << (2 * _KEY_BITS)) + (dy << _KEY_BITS) + dz
+        for dx in (-1, 0, 1)
+        for dy in (-1, 0, 1)
+        for dz in (-1, 0, 1)
+        if (dx, dy, dz) > (0, 0, 0)
+    ],
+    dtype=np.int64,
+)
+
+
+@dataclass(frozen=True)
+class Intrinsics:
+    """A pinhole camera: pixel (u, v) sees the ray [(u − c_x)/f_x,
+    (v − c_y)/f_y, 1] (Drake's `CameraInfo` convention)."""
+
+    width: int
+    height: int
+    focal_x: float
+    focal_y: float
+    center_x: float
+    center_y: float
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One camera's thinned frame: samples in the camera frame C and the
+    block each came from (row-major on the block grid)."""
+
+    points: np.ndarray  # (n, 3), C
+    blocks: np.ndarray  # (n,) int
+    grid: tuple[int, int]  # (rows, columns) of blocks
+
+
+@dataclass(frozen=True)
+class Memory:
+    """Remembered samples, world frame, with the time each was seen."""
+
+    points: np.ndarray  # (m, 3)
+    times: np.ndarray  # (m,)
+
+    @staticmethod
+    def empty() -> "Memory":
+        return Memory(np.zeros((0, 3)), np.zeros(0))
+
+
+class Thinning:
+    """Step 1 for one camera: which return of each BLOCK×BLOCK block of
+    pixels is nearest `centre` (the vehicle centre in C), chosen on the
+    depth image itself. A pixel at z-depth z sees the point z·ρ (its ray ρ,
+    `rays` (3, height·width) with ρ_z = 1, row-major like the image), so
+    |z·ρ − c|² = z (z |ρ|² − 2 ρ·c) + |c|² needs two products a pixel. The
+    blocks of the last row and column may be partial."""
+
+    def __init__(self, rays: np.ndarray, width: int, height: int, centre):
+        self.width, self.height = width, height
+        rows, cols = -(-height // BLOCK), -(-width // BLOCK)
+        self.grid = (rows, cols)
+        # float32 like the image: float64 temporaries of a whole image (150
+        # kB) are big enough for malloc to map and unmap them every time.
+        self._a = np.sum(rays * rays, axis=0).reshape(height, width).astype(np.float32)
+        self._b = (-2.0 * np.asarray(centre) @ rays).reshape(height, width)
+        self._b = self._b.astype(np.float32)
+        self._c = np.float32(np.dot(centre, centre))
+
+    def __call__(self, points: np.ndarray, depth: np.ndarray) -> Frame:
+        """The frame of an organized cloud `points` (3, height·width) and its
+        depth image (height, width): z-depths, inf for no return, 0 for too
+        close (no sample either)."""
+        z = depth.astype(np.float32)
+        d2 = z * (z * self._a + self._b) + self._c
+        d2[~(z > 0.0)] = np.inf
+        rows, cols = self.grid
+        padded = d2
+        if padded.shape != (rows * BLOCK, cols * BLOCK):
+            padded = np.full((rows * BLOCK, cols * BLOCK), np.inf, dtype=d2.dtype)
+            padded[: self.height, : self.width] = d2
+        per_block = padded.reshape(rows, BLOCK, cols, BLOCK).swapaxes(1, 2)
+        per_block = per_block.reshape(rows * cols, BLOCK * BLOCK)
+        best = np.argmin(per_block, axis=1)
+        blocks = np.flatnonzero(np.isfinite(per_block[np.arange(rows * cols), best]))
+        best = best[blocks]
+        v = (blocks // cols) * BLOCK + best // BLOCK
+        u = (blocks % cols) * BLOCK + best % BLOCK
+        return Frame(points[:, v * self.width + u].T, blocks, self.grid)
+
+
+def surface_links(frame: Frame, distance: float = SURFACE_DISTANCE) -> np.ndarray:
+    """(k, 2) pairs of samples of `frame` in neighbouring blocks (across and
+    down) that fit a plane at least `distance` from the camera.
+
+    On a plane n·X = c (|n| = 1, c its distance from the camera centre)
+    the inverse depth 1/z = n·ρ/c is affine in the pixel's ray ρ = X/z, so
+    two of its samples differ by |Δ(1/z)| ≤ |Δρ|/c, however obliquely it is
+    seen. Two samples with |Δ(1/z)| · distance ≤ |Δρ| are therefore joined;
+    a depth jump at an occluding edge is larger and is not."""
+    rows, cols = frame.grid
+    index = np.full(rows * cols, -1)
+    index[frame.blocks] = np.arange(len(frame.blocks))
+    # Per block: 1/z and the ray's x and y (NaN where the block saw nothing,
+    # so that every comparison with it is false).
+    grid = np.full((3, rows * cols), np.nan)
+    z = frame.points[:, 2]
+    grid[0, frame.blocks] = distance / z
+    grid[1:, frame.blocks] = frame.points[:, :2].T / z
+    grid, index = grid.reshape(3, rows, cols), index.reshape(rows, cols)
+    pairs = []
+    for a, b in (
+        (np.s_[:, :-1], np.s_[:, 1:]),  # across
+        (np.s_[:-1, :], np.s_[1:, :]),  # down
+    ):
+        g, h = grid[(slice(None), *a)], grid[(slice(None), *b)]
+        step = np.hypot(g[1] - h[1], g[2] - h[2])
+        joined = np.abs(g[0] - h[0]) <= step
+        pairs.append(np.stack([index[a][joined], index[b][joined]], axis=1))
+    return np.concatenate(pairs)
+
+
+def seen_again(
+    points: np.ndarray,
+    R_CW: np.ndarray,
+    p_CW: np.ndarray,
+    camera: Intrinsics,
+    depth: np.ndarray,
+    max_range: float,
+    margin: float = DEPTH_MARGIN,
+) -> np.ndarray:
+    """Which world points (m, 3) a frame clears: those in its view frustum
+    (in front of the camera, projecting into the image) that are not hidden
+    behind what their pixel measured, i.e. z < depth + margin. A pixel with
+    no return shows free space up to max_range; one closer than the minimum
+    depth (0) shows none.
+
+    X_CW = (R_CW, p_CW) is the camera pose the frame is placed with."""
+    q = points @ R_CW.T + p_CW
+    z = q[:, 2]
+    ahead = z > 0.0
+    u = np.full(len(q), -1)
+    v = np.full(len(q), -1)
+    u[ahead] = np.rint(camera.focal_x * q[ahead, 0] / z[ahead] + camera.center_x)
+    v[ahead] = np.rint(camera.focal_y * q[ahead, 1] / z[ahead] + camera.center_y)
+    inside = ahead & (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
+    measured = depth[v[inside], u[inside]].astype(float)
+    limit = measured + margin
+    limit[np.isinf(measured)] = max_range
+    limit[measured <= 0.0] = 0.0
+    cleared = np.zeros(len(q), dtype=bool)
+    cleared[inside] = z[inside] < limit
+    return cleared
+
+
+def remember(
+    memory: Memory,
+    cleared: np.ndarray,
+    new_points: np.ndarray,
+    time: float,
+    position: np.ndarray,
+    duration: float,
+    reach: float,
+) -> Memory:
+    """The memory after a frame at `time`: without the `cleared` samples,
+    those seen `duration` or more ago and those farther than `reach` from
+    `position`; with the frame's `new_points` (world frame) added."""
+    near = np.sum((memory.points - position) ** 2, axis=1) <= reach * reach
+    keep = ~cleared & (time - memory.times < duration) & near
+    return Memory(
+        np.concatenate([memory.points[keep], new_points]),
+        np.concatenate([memory.times[keep], np.full(len(new_points), float(time))]),
+    )
+
+
+@dataclass(frozen=True)
+class VoxelGraph:
+    """The samples' occupied voxels and which of them are neighbours."""
+
+    voxel_of: np.ndarray  # (m,) the voxel of each sample
+    count: int  # voxels
+    a: np.ndarray  # (e,) edges (a_i, b_i) between voxels
+    b: np.ndarray
+
+
+def voxel_graph(
+    points: np.ndarray, links: np.ndarray | None = None, voxel: float = VOXEL
+) -> VoxelGraph:
+    """The graph of the occupied voxels of `points` (m, 3): an edge between
+    each two of the 26-neighbourhood, and one for each pair of samples in
+    `links` ((k, 2) indices, `surface_links`) that lie in different voxels."""
+    cells = np.floor(points / voxel).astype(np.int64) + _KEY_OFFSET
+    keys = (cells[:, 0] << (2 * _KEY_BITS)) | (cells[:, 1] << _KEY_BITS) | cells[:, 2]
+    occupied, voxel_of = np.unique(keys, return_inverse=True)
+    if len(occupied) == 0:
+        return VoxelGraph(voxel_of, 0, voxel_of, voxel_of)
+    wanted = (occupied[:, None] + _NEIGHBOURS).ravel()
+    found = np.minimum(np.searchsorted(occupied, wanted), len(occupied) - 1)
+    hit = occupied[found] == wanted
+    a = np.repeat(np.arange(len(occupied)), len(_NEIGHBOURS))[hit]
+    b = found[hit]
+    if links is not None and len(links):
+        a = np.concatenate([a, voxel_of[links[:, 0]]])
+        b = np.concatenate([b, voxel_of[links[:, 1]]])
+    return VoxelGraph(voxel_of, len(occupied), a, b)
+
+
+def nearest_basins(
+    points: np.ndarray, graph: VoxelGraph, position: np.ndarray, count: int
+) -> np.ndarray:
+    """The voxels of the `count` nearest local minima of the distance to
+    `position`, nearest first: the voxels whose nearest sample is nearer
+    than every neighbour's (ties to the lower voxel index).
+
+    Each is one obstacle as the vehicle sees it: a convex obstacle has one
+    minimum on its surface, a wall seen edge-on one (the distance grows
+    along it), and obstacles that touch or overlap one each where each
+    bulges toward the vehicle."""
+    d = _squared_distances(points.T, position)
+    nearest = np.full(graph.count, np.inf)
+    np.minimum.at(nearest, graph.voxel_of, d)
+    a, b = graph.a, graph.b
+    # (d, index) of each end, compared lexicographically.
+    a_first = (nearest[a] < nearest[b]) | ((nearest[a] == nearest[b]) & (a < b))
+    beaten = np.zeros(graph.count, dtype=bool)
+    beaten[b[a_first]] = True
+    beaten[a[~a_first & (a != b)]] = True
+    minima = np.flatnonzero(~beaten)
+    return minima[np.argsort(nearest[minima], kind="stable")[:count]]
+
+
+def _squared_distances(xyz: np.ndarray, position: np.ndarray) -> np.ndarray:
+    """|q − position|² of each column q of xyz (3, n), row by row (summing
+    an (n, 3) array along its rows is several times slower), in xyz's
+    precision: a whole image's float64 temporaries (150 kB each) are large
+    enough for malloc to map and unmap them every time, ten times slower."""
+    p = np.asarray(position, dtype=xyz.dtype)
+    dx, dy, dz = xyz[0] - p[0], xyz[1] - p[1], xyz[2] - p[2]
+    return dx * dx + dy * dy + dz * dz
+
+
+@dataclass(frozen=True)
+class Groups:
+    """Points in groups: columns starts[i] to starts[i + 1] − 1 of xyz
+    (3, n) are group i's."""
+
+    xyz: np.ndarray
+    starts: np.ndarray
+
+    @staticmethod
+    def of(points: np.ndarray, labels: np.ndarray) -> "Groups":
+        """The points (n, 3) grouped by their labels."""
+        order = np.argsort(labels, kind="stable")
+        starts = np.flatnonzero(np.diff(labels[order], prepend=-1))
+        return Groups(np.ascontiguousarray(points[order].T), starts)
+
+    def nearest(self, position: np.ndarray) -> np.ndarray:
+        """(k, 3): the vector from `position` to each group's nearest point,
+        nearest first."""
+        if len(self.starts) == 0:
+            return np.zeros((0, 3))
+        d2 = _squared_distances(self.xyz, position)
+        ends = np.append(self.starts[1:], len(d2))
+        out = []
+        for i in np.argsort(np.minimum.reduceat(d2, self.starts)):
+            lo = self.starts[i]
+            out.append(self.xyz[:, lo + np.argmin(d2[lo : ends[i]])] - position)
+        return np.array(out)
+
+
+# --- one frame of the rig -------------------------------------------------------
+@dataclass(frozen=True)
+class View:
+    """One camera's frame, placed in the world with the pose estimate."""
+
+    frame: Frame
+    R_WC: np.ndarray
+    p_WC: np.ndarray
+    camera: Intrinsics
+    depth: np.ndarray  # (height, width) z-depths
+    max_range: float
+
+
+@dataclass(frozen=True)
+class Percept:
+    """What the cameras know after a frame: the memory, and the samples of
+    the voxel of each of the nearest local minima (`nearest_basins`) seen
+    from the vehicle at the frame, whose nearest sample is read until the
+    next frame.
+
+    Immutable (its arrays are never written after construction), so the
+    copies Drake makes of a context's state share it."""
+
+    memory: Memory
+    basins: Groups
+
+    def __deepcopy__(self, memo) -> "Percept":
+        return self
+
+    @staticmethod
+    def empty() -> "Percept":
+        return Percept(Memory.empty(), Groups(np.zeros((3, 0)), np.zeros(0, int)))
+
+
+def fuse(
+    memory: Memory,
+    views: list[View],
+    time: float,
+    position: np.ndarray,
+    duration: float,
+    reach: float,
+) -> Memory:
+    """Step 2: the memory after the rig's `views` at `time`, the vehicle at
+    `position`; the views' samples are its last ones, in order."""
+    cleared = np.zeros(len(memory.points), dtype=bool)
+    for view in views:
+        R_CW = view.R_WC.T
+        cleared |= seen_again(
+            memory.points,
+            R_CW,
+            -R_CW @ view.p_WC,
+            view.camera,
+            view.depth,
+            view.max_range,
+        )
+    new = [view.frame.points @ view.R_WC.T + view.p_WC for view in views]
+    return remember(
+        memory, cleared, np.concatenate(new), time, position, duration, reach
+    )
+
+
+def read(
+    memory: Memory, frames: list[Frame], position: np.ndarray, count: int
+) -> Percept:
+    """Steps 3 and 4: the percept of `memory`, whose last samples are the
+    `frames`', seen from `position`; `count` readings."""
+    links, start = [], len(memory.points) - sum(len(f.points) for f in frames)
+    for frame in frames:
+        links.append(surface_links(frame) + start)
+        start += len(frame.points)
+    graph = voxel_graph(memory.points, np.concatenate(links))
+    basins = nearest_basins(memory.points, graph, position, count)
+    mine = np.isin(graph.voxel_of, basins)
+    return Percept(memory, Groups.of(memory.points[mine], graph.voxel_of[mine]))
+
+
+def perceive(
+    before: Percept,
+    views: list[View],
+    time: float,
+    position: np.ndarray,
+    duration: float,
+    reach: float,
+    count: int,
+) -> Percept:
+    """The percept after the rig's `views` at `time` (steps 2–4 of the
+    module docstring), the vehicle at `position`; `count` readings."""
+    memory = fuse(before.memory, views, time, position, duration, reach)
+    return read(memory, [view.frame for view in views], position, count)
