@@ -3,15 +3,19 @@
 The flights are replayed from their logs rather than recorded while they are
 simulated: a visualiser in the simulated diagram would add publish events
 that change the integrator's steps, and so the flight. Each flight gets a
-small diagram (SceneGraph, the vehicle's shapes in its method's colour,
-Drake's MeshcatVisualizer under the prefix of its method); setting the logged
-state frame by frame and publishing records the animation. The obstacles are
-drawn once, and each method's whole path as a line of its colour.
+small diagram (SceneGraph, the shapes of each of its vehicles in its
+method's colour, Drake's MeshcatVisualizer under the prefix of its method);
+setting the logged states, and the moving obstacles' poses, frame by frame
+and publishing records the animation. The obstacles are drawn once, the
+ground as a slab under the scene (Meshcat draws no half space), and each
+vehicle's whole path as a line of its method's colour. The page opens with
+the camera framing the whole scene.
 """
 
 import numpy as np
 from matplotlib.colors import to_rgba
 from pydrake.geometry import (
+    Box,
     Meshcat,
     MeshcatParams,
     MeshcatVisualizer,
@@ -19,6 +23,7 @@ from pydrake.geometry import (
     Rgba,
     SceneGraph,
 )
+from pydrake.math import RigidTransform
 from pydrake.systems.framework import DiagramBuilder
 
 from mfi_drake.config.scenario import Scenario
@@ -27,9 +32,14 @@ from mfi_drake.files import write_text
 from mfi_drake.flight.methods import appearance
 from mfi_drake.flight.simulation import Flight
 from mfi_drake.systems.sensors import VehicleGeometry
-from mfi_drake.world.obstacles import register_obstacles
+from mfi_drake.world.motion import obstacle_position
+from mfi_drake.world.obstacles import GROUND_RGBA, register_obstacles
+from mfi_drake.world.shapes import bounding_radius
 
 FRAMES_PER_SECOND = 32.0
+FIELD_OF_VIEW_DEG = 75.0  # Meshcat's default perspective camera
+VIEW_DIRECTION = np.array([-0.5, -0.7, 0.8])  # from the scene's centre
+GROUND_THICKNESS = 0.05  # m, of the slab drawn for the ground
 
 
 def _rgba(method: str) -> Rgba:
@@ -42,38 +52,83 @@ def _record(
     vehicle = VEHICLES[scenario.vehicle]
     builder = DiagramBuilder()
     scene_graph = builder.AddSystem(SceneGraph())
-    if with_obstacles:
-        register_obstacles(scene_graph, scenario)
-    geometry = builder.AddSystem(
-        VehicleGeometry(
-            scene_graph, vehicle.arm_length, vehicle.rotor_radius, _rgba(flight.method)
+    frames = register_obstacles(scene_graph, scenario) if with_obstacles else None
+    vehicles = [flight, *flight.others]
+    geometries = []
+    for k in range(len(vehicles)):
+        geometry = builder.AddSystem(
+            VehicleGeometry(
+                scene_graph,
+                vehicle.arm_length,
+                vehicle.rotor_radius,
+                _rgba(flight.method),
+                name=f"vehicle_{k}",
+            )
         )
-    )
-    builder.Connect(
-        geometry.get_output_port(0),
-        scene_graph.get_source_pose_port(geometry.source_id),
-    )
+        builder.Connect(
+            geometry.get_output_port(0),
+            scene_graph.get_source_pose_port(geometry.source_id),
+        )
+        geometries.append(geometry)
     visualizer = MeshcatVisualizer.AddToBuilder(
         builder, scene_graph, meshcat, MeshcatVisualizerParams(prefix=flight.method)
     )
     diagram = builder.Build()
     context = diagram.CreateDefaultContext()
-    state_port = geometry.get_input_port(0)
-    geometry_context = geometry.GetMyMutableContextFromRoot(context)
+    scene_context = scene_graph.GetMyMutableContextFromRoot(context)
     visualizer_context = visualizer.GetMyContextFromRoot(context)
-    states = flight.log["state"]
     frame_times = np.arange(0.0, flight.times[-1], 1.0 / FRAMES_PER_SECOND)
-    # The last logged sample at or before each frame time.
-    samples = np.searchsorted(flight.times, frame_times, side="right") - 1
-    for t, i in zip(frame_times, samples, strict=True):
+    for t in frame_times:
         context.SetTime(t)
-        state_port.FixValue(geometry_context, states[i])
+        for geometry, flown in zip(geometries, vehicles, strict=True):
+            # The last logged sample at or before the frame time.
+            i = np.searchsorted(flown.times, t, side="right") - 1
+            geometry.get_input_port(0).FixValue(
+                geometry.GetMyMutableContextFromRoot(context), flown.log["state"][i]
+            )
+        if frames is not None:
+            frames.fix(scene_graph, scene_context, t)
         visualizer.ForcedPublish(visualizer_context)
-    meshcat.SetLine(
-        f"paths/{flight.method}",
-        flight.positions.T.copy(),
-        line_width=2.0,
-        rgba=_rgba(flight.method),
+    for k, flown in enumerate(vehicles):
+        meshcat.SetLine(
+            f"paths/{flight.method}/{k}",
+            flown.positions.T.copy(),
+            line_width=2.0,
+            rgba=_rgba(flight.method),
+        )
+
+
+def scene_box(scenario: Scenario, flights: list[Flight]) -> tuple:
+    """(low, high) corners of a box holding every vehicle's path, start and
+    goal, and every obstacle wherever it went."""
+    points = [np.asarray(scenario.start, float), np.asarray(scenario.goal, float)]
+    for flight in flights:
+        points += [f.positions for f in (flight, *flight.others)]
+    for obstacle in scenario.obstacles:
+        reach = bounding_radius(scenario, obstacle.shape)
+        centres = np.atleast_2d(obstacle_position(obstacle, flights[0].times))
+        points += [centres - reach, centres + reach]
+    points = np.vstack([np.atleast_2d(p) for p in points])
+    return points.min(axis=0), points.max(axis=0)
+
+
+def frame_scene(meshcat: Meshcat, low: np.ndarray, high: np.ndarray) -> None:
+    """Points the camera at the box's centre from VIEW_DIRECTION, far enough
+    for the box's bounding sphere to fill the view."""
+    centre = (low + high) / 2.0
+    radius = max(float(np.linalg.norm(high - low)) / 2.0, 1.0)
+    distance = 1.1 * radius / np.sin(np.radians(FIELD_OF_VIEW_DEG) / 2.0)
+    direction = VIEW_DIRECTION / np.linalg.norm(VIEW_DIRECTION)
+    meshcat.SetCameraPose(centre + distance * direction, centre)
+
+
+def draw_ground(meshcat: Meshcat, height: float, low, high) -> None:
+    """A slab whose top is the ground, a metre beyond the scene each way."""
+    size = np.asarray(high[:2]) - np.asarray(low[:2]) + 2.0
+    centre = (np.asarray(low[:2]) + np.asarray(high[:2])) / 2.0
+    meshcat.SetObject("ground", Box(*size, GROUND_THICKNESS), GROUND_RGBA)
+    meshcat.SetTransform(
+        "ground", RigidTransform([*centre, height - GROUND_THICKNESS / 2.0])
     )
 
 
@@ -88,4 +143,9 @@ def write_animation(scenario: Scenario, flights: list[Flight], path: str) -> Non
         _record(meshcat, scenario, flight, with_obstacles=i == 0)
     meshcat.StopRecording()
     meshcat.PublishRecording()
+    low, high = scene_box(scenario, flights)
+    if scenario.ground is not None:
+        low[2] = min(low[2], scenario.ground.height)
+        draw_ground(meshcat, scenario.ground.height, low, high)
+    frame_scene(meshcat, low, high)
     write_text(path, meshcat.StaticHtml())

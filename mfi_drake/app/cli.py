@@ -143,11 +143,13 @@ def cmd_reproduce(args) -> int:
     from mfi_drake.files import write_text
     from mfi_drake.studies.compare import reproduce, reproduction_report
 
-    results, flights = reproduce(args.scenarios)
+    layers = overrides(args)
+    results, flights = reproduce(args.scenarios, overrides=layers)
     for name, flown in flights.items():
         figure = os.path.join(args.out, f"{name}.png")
         write_comparison_figure(flown[0].scenario, flown, figure)
-    write_text(os.path.join(args.out, "results.md"), reproduction_report(results))
+    report = reproduction_report(results, [where for where, _ in layers])
+    write_text(os.path.join(args.out, "results.md"), report)
     print(f"wrote {args.out}/results.md and one figure per scenario")
     return 0
 
@@ -193,6 +195,7 @@ def cmd_sweep(args) -> int:
         SweepConfig,
         dask_client,
         fault_variant,
+        motion_variant,
         override_variant,
         run_sweep,
         summary_table,
@@ -202,6 +205,7 @@ def cmd_sweep(args) -> int:
 
     methods = parse_methods(args.methods) if args.methods else list(METHODS)
     _check_sweep_numbers(args)
+    _check_motion_numbers(args)
     config = SweepConfig(
         n=args.n,
         seed=args.seed,
@@ -209,8 +213,10 @@ def cmd_sweep(args) -> int:
         densities=list(dict.fromkeys(args.density)),
         sensor=args.sensor,
         out=args.out,
+        moving=args.moving,
+        obstacle_speed=args.obstacle_speed,
     )
-    steps, variants = [], []
+    steps, variants = [], [motion_variant(args.moving, args.obstacle_speed)]
     if args.overrides:
         texts = overrides(args)
         steps.append(partial(with_overrides, overrides=texts))
@@ -259,6 +265,16 @@ def _check_sweep_numbers(args) -> None:
     for d in args.density:
         if not (math.isfinite(d) and d >= 0.0):
             raise UsageError(f"--density = {d}: must be a finite number ≥ 0")
+
+
+def _check_motion_numbers(args) -> None:
+    if not (math.isfinite(args.moving) and 0.0 <= args.moving <= 1.0):
+        raise UsageError(f"--moving = {args.moving}: must be a share in [0, 1]")
+    speed = args.obstacle_speed
+    if not (math.isfinite(speed) and speed >= 0.0) or (args.moving > 0 and speed == 0):
+        raise UsageError(
+            f"--obstacle-speed = {speed}: must be a finite number > 0 with --moving"
+        )
 
 
 def cmd_tune(args) -> int:
@@ -394,6 +410,7 @@ def make_parser() -> argparse.ArgumentParser:
         "--scenarios", default="scenarios", help="directory of the paper's scenarios"
     )
     rep.add_argument("--out", default="out/reproduce", help="output directory")
+    add_overrides(rep)
     rep.set_defaults(func=cmd_reproduce)
 
     sweep = sub.add_parser(
@@ -418,6 +435,21 @@ def make_parser() -> argparse.ArgumentParser:
         f"(default {DEFAULT_DENSITY:g}); several values sweep them all",
     )
     sweep.add_argument("--sensor", choices=["sphere", "depth"], default="sphere")
+    sweep.add_argument(
+        "--moving",
+        type=float,
+        default=0.0,
+        metavar="SHARE",
+        help="share of each field's obstacles that move, circling at "
+        "--obstacle-speed (default 0: none; docs/dynamic.md)",
+    )
+    sweep.add_argument(
+        "--obstacle-speed",
+        type=float,
+        default=0.0,
+        metavar="M/S",
+        help="speed of the moving obstacles",
+    )
     sweep.add_argument(
         "--workers",
         type=int,

@@ -24,6 +24,13 @@ from pydrake.common.schema import Transform
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from pydrake.systems.analysis import SimulatorConfig
 
+from mfi_drake.config.dynamic import (
+    MOTION_KEYS,
+    Ground,
+    Motion,
+    OtherVehicle,
+    RelativeVelocity,
+)
 from mfi_drake.config.faults import Faults, fault_problems
 from mfi_drake.config.parameters import (
     ApfParams,
@@ -83,6 +90,7 @@ class Obstacle:
     shape: Shape = field(default_factory=Box)
     position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # m
     rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # deg
+    motion: Motion | None = None  # none: static (docs/dynamic.md)
 
 
 # --- sensors ------------------------------------------------------------------
@@ -173,6 +181,10 @@ class Scenario:
     vehicle: str = "drake_default"
     sensor: Sensor = field(default_factory=SphereSensor)
     obstacles: list[Obstacle] = field(default_factory=list)
+    ground: Ground | None = None  # none: no ground
+    # Further vehicles flown at once (docs/dynamic.md).
+    other_vehicles: list[OtherVehicle] = field(default_factory=list)
+    relative_velocity: RelativeVelocity = field(default_factory=RelativeVelocity)
     navigator: NavigatorParams = field(default_factory=NavigatorParams)
     # The paper's literal MFI (method "mfi-paper"): its own gains, repairs off.
     mfi_paper: NavigatorParams = field(
@@ -273,6 +285,42 @@ def _check_shape(where: str, shape) -> None:
             _check_positive(where, f"shape.{f.name}", value)
 
 
+def _check_motion(where: str, motion: Motion) -> None:
+    for key in MOTION_KEYS:
+        _check_vector(where, f"motion.{key}", getattr(motion, key))
+    if any(w < 0.0 for w in motion.angular_frequency):
+        fail(where, "motion.angular_frequency", motion.angular_frequency, "must be ≥ 0")
+
+
+def _check_dynamic(where: str, scenario: Scenario) -> None:
+    """The ground, the other vehicles and the relative-velocity estimate
+    (docs/dynamic.md); `world.validation` checks where the vehicles are."""
+    if scenario.ground is not None:
+        height = scenario.ground.height
+        if not _is_number(height) or not math.isfinite(height):
+            fail(where, "ground.height", height, "must be a finite number")
+    for i, other in enumerate(scenario.other_vehicles):
+        _check_vector(where, f"other_vehicles[{i}].start", other.start)
+        _check_vector(where, f"other_vehicles[{i}].goal", other.goal)
+    if scenario.other_vehicles and isinstance(scenario.sensor, Cameras):
+        fail(
+            where,
+            "other_vehicles",
+            scenario.other_vehicles,
+            "are flown with the sphere sensor only (one depth renderer per scene)",
+        )
+    if scenario.other_vehicles and scenario.faults != Faults():
+        fail(
+            where, "other_vehicles", scenario.other_vehicles, "are flown without faults"
+        )
+    estimate = scenario.relative_velocity
+    _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
+    _check_positive(where, "relative_velocity.gate", estimate.gate)
+    tau = estimate.time_constant
+    if not _is_number(tau) or not math.isfinite(tau) or tau < 0.0:
+        fail(where, "relative_velocity.time_constant", tau, "must be a number ≥ 0")
+
+
 def check_scenario(scenario: Scenario, where: str) -> None:
     """Raises ScenarioError for the first problem found that needs no
     geometry, naming `where`."""
@@ -310,6 +358,9 @@ def check_scenario(scenario: Scenario, where: str) -> None:
         _check_shape(at, obstacle.shape)
         _check_vector(at, "position", obstacle.position)
         _check_vector(at, "rpy_deg", obstacle.rpy_deg)
+        if obstacle.motion is not None:
+            _check_motion(at, obstacle.motion)
+    _check_dynamic(where, scenario)
 
 
 class _TaggedLoader(yaml.SafeLoader):
@@ -384,7 +435,10 @@ def _check_value(value, hint, where: str, name: str) -> None:
         for i, x in enumerate(value):
             _check_value(x, item, where, f"{name}[{i}]")
     elif origin in (types.UnionType, typing.Union):
-        options = {t.__name__: t for t in typing.get_args(hint)}
+        alternatives = typing.get_args(hint)
+        if value is None and type(None) in alternatives:  # an optional block
+            return
+        options = {t.__name__: t for t in alternatives if t is not type(None)}
         # Untagged is the first alternative, as Drake writes and reads it.
         first = next(iter(options))
         tag = value.get("_tag", first) if isinstance(value, dict) else None

@@ -8,9 +8,15 @@
 Every signal worth reading afterwards goes through one Multiplexer into a
 VectorLogSink that records at every integrator step. The scenario's faults
 (`faults`) are inserted only when turned on; the log keeps the true state.
+
+A dynamic scene (docs/dynamic.md) adds the `ObstacleMotion` source that
+poses the moving obstacles, a navigator that uses the velocity relative to
+each obstacle (`systems.relative`), and each of the `other_vehicles` as a
+closed loop of its own, the same systems with names ending "_k" (k = 1, 2,
+…) and a logger of its own.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 from pydrake.examples import QuadrotorPlant
 from pydrake.geometry import SceneGraph
@@ -29,8 +35,12 @@ from mfi_drake.systems.faults import (
     add_sensor_faults,
     add_state_estimate,
 )
+from mfi_drake.systems.motion import ObstacleMotion
+from mfi_drake.systems.navigation import ObstacleNavigator
+from mfi_drake.systems.relative import relative_navigator
 from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
 from mfi_drake.systems.sensors import VehicleGeometry
+from mfi_drake.world.motion import is_dynamic
 from mfi_drake.world.obstacles import register_obstacles
 
 # What the log holds, in order: (name, size, source system, its output port).
@@ -48,6 +58,16 @@ LOG_LAYOUT: list[tuple[str, int, str, str]] = [
 
 
 @dataclass
+class VehicleLoop:
+    """One vehicle's closed loop in a flight's diagram."""
+
+    scenario: Scenario  # the flight's, with this vehicle's start and goal
+    plant: QuadrotorPlant
+    sensor: object  # the system whose "obstacle" port the navigator reads
+    logger: VectorLogSink
+
+
+@dataclass
 class FlightDiagram:
     """The built diagram and the handles a simulation needs."""
 
@@ -59,6 +79,7 @@ class FlightDiagram:
     scene_graph: SceneGraph
     logger: VectorLogSink
     sensor: object  # the system whose "obstacle" port the navigator reads
+    others: list[VehicleLoop] = field(default_factory=list)  # other_vehicles
 
     def log_slices(self) -> dict[str, slice]:
         slices, start = {}, 0
@@ -84,16 +105,23 @@ def add_sensor(
     scene_graph: SceneGraph,
     plant: QuadrotorPlant,
     geometry: VehicleGeometry,
+    suffix: str = "",
 ):
-    """Adds the scenario's sensor, named "sensor", whose output port
+    """Adds the scenario's sensor, named "sensor" + suffix, whose output port
     "obstacle" carries readings [r_o, seen] (see `maths.layout`). A camera
-    rig's "state" input is left for `build_diagram` to connect."""
+    rig's "state" input is left for `build_diagram` to connect. A sphere
+    sensor does not see its own vehicle's collision sphere."""
     if isinstance(scenario.sensor, Cameras):
         return add_depth_cameras(builder, scenario.sensor, scene_graph, geometry)
     if not isinstance(scenario.sensor, SphereSensor):
         raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
     sensor = builder.AddNamedSystem(
-        "sensor", SphereSensorSystem(scenario.sensor.radius)
+        f"sensor{suffix}",
+        SphereSensorSystem(
+            scenario.sensor.radius,
+            ignored={geometry.sphere_id} - {None},
+            moving=is_dynamic(scenario),
+        ),
     )
     builder.Connect(scene_graph.get_query_output_port(), sensor.GetInputPort("query"))
     builder.Connect(plant.get_output_port(0), sensor.GetInputPort("state"))
@@ -144,18 +172,96 @@ def connect_controller(
 
 def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightDiagram:
     """Builds the closed loop of `scenario` flown by `method` (a registry
-    name, a user field's MODULE:NAME or callable, see `methods`)."""
+    name, a user field's MODULE:NAME or callable, see `methods`), with one
+    loop per vehicle when the scenario has `other_vehicles`."""
     method = resolve_method(method)
-    vehicle = VEHICLES[scenario.vehicle]
-    params = scenario.navigator
     builder = DiagramBuilder()
 
     scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
-    register_obstacles(scene_graph, scenario)
-    plant = builder.AddNamedSystem("quadrotor", make_plant(vehicle))
+    frames = register_obstacles(scene_graph, scenario)
+    if frames.frames:
+        motion = builder.AddNamedSystem("obstacle_motion", ObstacleMotion(frames))
+        builder.Connect(
+            motion.get_output_port(), scene_graph.get_source_pose_port(frames.source_id)
+        )
+    loops = [
+        add_vehicle(builder, scene_graph, flown, method, suffix)
+        for suffix, flown in vehicle_scenarios(scenario)
+    ]
+    sensor = loops[0].sensor
+    if sensor.HasOutputPort("frames_rendered"):  # a camera counts its frames
+        builder.ExportOutput(sensor.GetOutputPort("frames_rendered"), "frames_rendered")
+
+    diagram = builder.Build()
+    diagram.set_name(f"mfi_drake[{scenario.name}, {method.name}]")
+    return FlightDiagram(
+        diagram=diagram,
+        scenario=scenario,
+        vehicle=VEHICLES[scenario.vehicle],
+        method=method.name,
+        plant=loops[0].plant,
+        scene_graph=scene_graph,
+        logger=loops[0].logger,
+        sensor=sensor,
+        others=loops[1:],
+    )
+
+
+def vehicle_scenarios(scenario: Scenario) -> list[tuple[str, Scenario]]:
+    """(name suffix, the scenario with its start and goal) of each vehicle:
+    the scenario's own first ("" : its systems keep their plain names), then
+    each of `other_vehicles` ("_1", "_2", …)."""
+    return [("", scenario)] + [
+        (f"_{k}", replace(scenario, start=list(o.start), goal=list(o.goal)))
+        for k, o in enumerate(scenario.other_vehicles, start=1)
+    ]
+
+
+def navigator_of(scenario: Scenario, method: Method, vehicle: Vehicle):
+    """The method's navigator; in a dynamic scene, with the velocity relative
+    to each obstacle (`systems.relative`) when the method's force is a sum
+    over readings (MFI and the baselines; a user field gets the vehicle's
+    own velocity, as its contract says)."""
+    navigator = method.navigator(scenario, vehicle)
+    estimate = scenario.relative_velocity
+    if (
+        is_dynamic(scenario)
+        and estimate.enabled
+        and isinstance(navigator, ObstacleNavigator)
+    ):
+        # A camera's readings change once a frame: sampled at its frame rate.
+        sensor = scenario.sensor
+        rate = sensor.rate_hz if isinstance(sensor, Cameras) else estimate.rate_hz
+        navigator = relative_navigator(
+            lambda: method.navigator(scenario, vehicle), estimate, rate
+        )
+    return navigator
+
+
+def add_vehicle(
+    builder: DiagramBuilder,
+    scene_graph: SceneGraph,
+    scenario: Scenario,
+    method: Method,
+    suffix: str = "",
+) -> VehicleLoop:
+    """Adds one vehicle's closed loop, flying `scenario`'s start to its goal;
+    its systems' names end in `suffix`. Among several vehicles, each carries
+    its collision sphere for the others' sensors."""
+    vehicle = VEHICLES[scenario.vehicle]
+    params = scenario.navigator
+    plant = builder.AddNamedSystem(f"quadrotor{suffix}", make_plant(vehicle))
     geometry = builder.AddNamedSystem(
-        "vehicle_geometry",
-        VehicleGeometry(scene_graph, vehicle.arm_length, vehicle.rotor_radius),
+        f"vehicle_geometry{suffix}",
+        VehicleGeometry(
+            scene_graph,
+            vehicle.arm_length,
+            vehicle.rotor_radius,
+            sphere_radius=(
+                vehicle.collision_radius if scenario.other_vehicles else None
+            ),
+            name=f"vehicle{suffix}",
+        ),
     )
     builder.Connect(plant.get_output_port(0), geometry.get_input_port(0))
     builder.Connect(
@@ -163,12 +269,18 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
         scene_graph.get_source_pose_port(geometry.source_id),
     )
 
-    sensor = add_sensor(builder, scenario, scene_graph, plant, geometry)
+    sensor = add_sensor(builder, scenario, scene_graph, plant, geometry, suffix)
 
-    navigator = builder.AddNamedSystem("navigator", method.navigator(scenario, vehicle))
-    selector = builder.AddNamedSystem("selector", method.goal_attraction(scenario))
-    attitude = builder.AddNamedSystem("attitude_pd", AttitudePD(vehicle, params))
-    mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
+    navigator = builder.AddNamedSystem(
+        f"navigator{suffix}", navigator_of(scenario, method, vehicle)
+    )
+    selector = builder.AddNamedSystem(
+        f"selector{suffix}", method.goal_attraction(scenario)
+    )
+    attitude = builder.AddNamedSystem(
+        f"attitude_pd{suffix}", AttitudePD(vehicle, params)
+    )
+    mixer = builder.AddNamedSystem(f"mixer{suffix}", RotorMixer(vehicle))
     estimate = connect_controller(
         builder,
         plant,
@@ -184,10 +296,15 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
         builder.Connect(estimate, sensor.GetInputPort("state"))
 
     mux = builder.AddNamedSystem(
-        "log_mux", Multiplexer([size for _, size, _, _ in LOG_LAYOUT])
+        f"log_mux{suffix}", Multiplexer([size for _, size, _, _ in LOG_LAYOUT])
     )
     systems = {
-        s.get_name(): s for s in (plant, sensor, navigator, selector, attitude, mixer)
+        "quadrotor": plant,
+        "sensor": sensor,
+        "navigator": navigator,
+        "selector": selector,
+        "attitude_pd": attitude,
+        "mixer": mixer,
     }
     for i, (_, _, system_name, port_name) in enumerate(LOG_LAYOUT):
         source = systems[system_name]
@@ -199,20 +316,5 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
         builder.Connect(port, mux.get_input_port(i))
     # publish_period 0: the sink records once per integrator step.
     logger = LogVectorOutput(mux.get_output_port(0), builder, publish_period=0.0)
-    logger.set_name("logger")
-
-    if sensor.HasOutputPort("frames_rendered"):  # a camera counts its frames
-        builder.ExportOutput(sensor.GetOutputPort("frames_rendered"), "frames_rendered")
-
-    diagram = builder.Build()
-    diagram.set_name(f"mfi_drake[{scenario.name}, {method.name}]")
-    return FlightDiagram(
-        diagram=diagram,
-        scenario=scenario,
-        vehicle=vehicle,
-        method=method.name,
-        plant=plant,
-        scene_graph=scene_graph,
-        logger=logger,
-        sensor=sensor,
-    )
+    logger.set_name(f"logger{suffix}")
+    return VehicleLoop(scenario, plant, sensor, logger)

@@ -34,6 +34,8 @@ class Flight:
     derivative_evaluations: int = 0  # its time-derivative evaluations
     frames_rendered: int | None = None  # depth-camera frames (None: no camera)
     metrics: dict = field(default_factory=dict)
+    # The scenario's other_vehicles, flown at once: one Flight each.
+    others: list["Flight"] = field(default_factory=list)
 
     @property
     def positions(self) -> np.ndarray:
@@ -55,10 +57,39 @@ OUTCOMES = ("success", "collision", "timeout")
 def outcome(metrics: dict) -> str:
     """A flight's result: "collision" if its clearance went below zero at any
     logged step (reached or not), else "success" if it ended within the goal
-    tolerance, else "timeout" (stuck, or too slow for the duration)."""
-    if metrics["collided"]:
+    tolerance, else "timeout" (stuck, or too slow for the duration). Among
+    several vehicles: "collision" if any collided or two touched
+    (min_separation ≤ 0), else "success" if every one reached its goal."""
+    vehicles = metrics.get("vehicles", [metrics])
+    touched = metrics.get("min_separation", np.inf) <= 0.0
+    if touched or any(v["collided"] for v in vehicles):
         return "collision"
-    return "success" if metrics["reached"] else "timeout"
+    return "success" if all(v["reached"] for v in vehicles) else "timeout"
+
+
+VEHICLE_KEYS = ("success", "reached", "collided", "min_clearance", "path_length")
+VEHICLE_KEYS += ("final_error", "convergence_time")
+
+
+def several_vehicles(flight: Flight, metrics: dict) -> dict:
+    """What a flight of several vehicles adds to the first one's `metrics`:
+    `vehicles` (each one's VEHICLE_KEYS, the first included),
+    `min_separation` (the least distance between two vehicles' centres
+    minus their two collision radii, over the logged times) and `success`,
+    true only when every vehicle succeeded and min_separation > 0."""
+    everyone = [metrics] + [other.metrics for other in flight.others]
+    positions = np.stack([flight.positions] + [o.positions for o in flight.others])
+    gaps = [
+        np.linalg.norm(positions[i] - positions[j], axis=1).min()
+        for i in range(len(positions))
+        for j in range(i + 1, len(positions))
+    ]
+    separation = float(min(gaps)) - 2.0 * flight.collision_radius
+    return {
+        "vehicles": [{k: m[k] for k in VEHICLE_KEYS} for m in everyone],
+        "min_separation": separation,
+        "success": all(m["success"] for m in everyone) and separation > 0.0,
+    }
 
 
 def simulator_at_start(diagram, plant, scenario: Scenario) -> Simulator:
@@ -70,10 +101,16 @@ def simulator_at_start(diagram, plant, scenario: Scenario) -> Simulator:
     # The integrator's accuracy is set by the config; the context's accuracy
     # is what accuracy-aware computations (witness isolation) read.
     context.SetAccuracy(scenario.simulator.accuracy)
-    x0 = np.zeros(STATE_SIZE)
-    x0[POSITION] = scenario.start
-    plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
+    place_at_start(plant, context, scenario.start)
     return simulator
+
+
+def place_at_start(plant, context, start) -> None:
+    """Puts `plant`, a subsystem of the diagram of `context`, at `start`, at
+    rest."""
+    x0 = np.zeros(STATE_SIZE)
+    x0[POSITION] = start
+    plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
 
 
 def run_timed(simulator: Simulator, duration: float) -> tuple[float, float]:
@@ -89,6 +126,8 @@ def fly(flight: FlightDiagram) -> Flight:
     scenario = flight.scenario
     simulator = simulator_at_start(flight.diagram, flight.plant, scenario)
     context = simulator.get_mutable_context()
+    for other in flight.others:
+        place_at_start(other.plant, context, other.scenario.start)
     wall_time, cpu_time = run_timed(simulator, scenario.duration)
     integrator = simulator.get_integrator()
     depth = isinstance(scenario.sensor, Cameras)
@@ -96,21 +135,28 @@ def fly(flight: FlightDiagram) -> Flight:
     if flight.diagram.HasOutputPort("frames_rendered"):
         port = flight.diagram.GetOutputPort("frames_rendered")
         frames = int(port.Eval(context)[0])
-    log = flight.logger.FindLog(context)
-    data = log.data().T
-    result = Flight(
-        scenario=scenario,
-        method=flight.method,
-        sensor="depth" if depth else "sphere",
-        collision_radius=flight.vehicle.collision_radius,
-        times=log.sample_times().copy(),
-        log={name: data[:, s] for name, s in flight.log_slices().items()},
-        wall_time=wall_time,
-        cpu_time=cpu_time,
-        integrator_steps=integrator.get_num_steps_taken(),
-        derivative_evaluations=integrator.get_num_derivative_evaluations(),
-        frames_rendered=frames,
-    )
+
+    def logged(flown: Scenario, logger) -> Flight:
+        log = logger.FindLog(context)
+        data = log.data().T
+        return Flight(
+            scenario=flown,
+            method=flight.method,
+            sensor="depth" if depth else "sphere",
+            collision_radius=flight.vehicle.collision_radius,
+            times=log.sample_times().copy(),
+            log={name: data[:, s] for name, s in flight.log_slices().items()},
+            wall_time=wall_time,
+            cpu_time=cpu_time,
+            integrator_steps=integrator.get_num_steps_taken(),
+            derivative_evaluations=integrator.get_num_derivative_evaluations(),
+        )
+
+    result = logged(scenario, flight.logger)
+    result.frames_rendered = frames
+    for other in flight.others:
+        result.others.append(logged(other.scenario, other.logger))
+        result.others[-1].metrics = flight_metrics(result.others[-1])
     result.metrics = flight_metrics(result)
     return result
 
@@ -122,13 +168,14 @@ def flight_metrics(flight: Flight) -> dict:
     goal = np.asarray(scenario.goal, float)
     error = np.linalg.norm(p - goal, axis=1)
     path_length = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
-    if scenario.obstacles:
+    if scenario.obstacles or scenario.ground is not None:
         # Exact: a point with nothing within the reach is farther than any
         # distance found. Only a flight that never came near anything needs
-        # the query against every obstacle.
-        distances = obstacle_distances(scenario, p, within=CLEARANCE_REACH)
+        # the query against every obstacle. Moving obstacles are where they
+        # were at each logged time.
+        distances = obstacle_distances(scenario, p, CLEARANCE_REACH, times)
         if not np.isfinite(distances).any():
-            distances = obstacle_distances(scenario, p)
+            distances = obstacle_distances(scenario, p, times=times)
         min_clearance = float(np.min(distances)) - flight.collision_radius
     else:
         min_clearance = float("inf")
@@ -158,6 +205,8 @@ def flight_metrics(flight: Flight) -> dict:
         "steps": int(len(times)),
         "saturated_fraction": float(np.mean(flight.log["saturation"][:, 0] > 0)),
     }
+    if flight.others:
+        metrics.update(several_vehicles(flight, metrics))
     metrics["outcome"] = outcome(metrics)
     if flight.frames_rendered is not None:
         metrics["frames_rendered"] = flight.frames_rendered

@@ -11,11 +11,13 @@ from pydrake.geometry import (
     GeometryFrame,
     GeometryInstance,
     IllustrationProperties,
+    ProximityProperties,
     QueryObject,
     Rgba,
     Role,
     SceneGraph,
 )
+from pydrake.geometry import Sphere as DrakeSphere
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.framework import LeafSystem
 
@@ -40,11 +42,18 @@ class SphereSensor(LeafSystem):
 
     "query": SceneGraph's QueryObject; "state": the plant's 12-vector;
     "obstacle": OBSTACLE_COUNT readings [r_o, seen], nearest first.
+
+    `ignored`: geometries it does not see (its vehicle's own collision
+    sphere, among several vehicles); `moving`: whether proximity geometry
+    moves (obstacles with a motion, other vehicles), which turns off the
+    memo of the last reading.
     """
 
-    def __init__(self, radius: float):
+    def __init__(self, radius: float, ignored=frozenset(), moving: bool = False):
         super().__init__()
         self._radius = float(radius)
+        self._ignored = frozenset(ignored)
+        self._moving = bool(moving)
         self._last_key = None  # (position bytes, geometry version), see _calc
         self._last_value = None
         self._query = self.DeclareAbstractInputPort(
@@ -61,6 +70,11 @@ class SphereSensor(LeafSystem):
     def _calc(self, context, output):
         p = self._state.Eval(context)[POSITION]
         query = self._query.Eval(context)
+        if self._moving:
+            output.SetFromVector(
+                nearest_obstacles(query, p, self._radius, self._ignored)
+            )
+            return
         # The obstacles are anchored, so the reading depends on p and on the
         # proximity geometry, which only changes with its version. The query
         # object itself is valid only during this evaluation: not kept.
@@ -89,7 +103,11 @@ class VehicleGeometry(LeafSystem):
         - geometry_pose
 
     The shapes carry only the illustration role: the vehicle is drawn, but
-    neither the sphere sensor nor a camera can see it.
+    neither the sphere sensor nor a camera can see it. With `sphere_radius`
+    (among several vehicles) its collision sphere is registered too, with
+    the proximity role only: the other vehicles' sphere sensors see it
+    (`sphere_id`; its own sensor ignores it). `name`: its SceneGraph
+    source's, one per vehicle.
     """
 
     def __init__(
@@ -98,9 +116,11 @@ class VehicleGeometry(LeafSystem):
         arm_length: float,
         rotor_radius: float,
         rgba: Rgba = VEHICLE_RGBA,
+        sphere_radius: float | None = None,
+        name: str = "vehicle",
     ):
         super().__init__()
-        self._source = scene_graph.RegisterSource("vehicle")
+        self._source = scene_graph.RegisterSource(name)
         self.frame_id = scene_graph.RegisterFrame(self._source, GeometryFrame("body"))
         parts = [(RigidTransform(), DrakeBox(0.6 * arm_length, 0.6 * arm_length, 0.05))]
         for k in range(4):
@@ -124,6 +144,15 @@ class VehicleGeometry(LeafSystem):
             illustration.AddProperty("phong", "diffuse", rgba)
             instance.set_illustration_properties(illustration)
             scene_graph.RegisterGeometry(self._source, self.frame_id, instance)
+        self.sphere_id = None
+        if sphere_radius is not None:
+            sphere = GeometryInstance(
+                RigidTransform(), DrakeSphere(sphere_radius), "collision_sphere"
+            )
+            sphere.set_proximity_properties(ProximityProperties())
+            self.sphere_id = scene_graph.RegisterGeometry(
+                self._source, self.frame_id, sphere
+            )
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self.DeclareAbstractOutputPort(
             "geometry_pose",

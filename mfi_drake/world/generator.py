@@ -23,6 +23,15 @@ much room. Field `index` at seed `seed` uses the random stream
 `default_rng([seed, index])`, one draw sequence per obstacle, so a field is
 reproducible and a denser field with the same seed and index holds the
 sparser one's obstacles plus more.
+
+`set_in_motion` makes a share of a field's obstacles move (docs/dynamic.md):
+each chosen obstacle circles its drawn position at a constant speed, on a
+circle of radius A in a random plane, from a random point of it; A is drawn
+in `CIRCLE_RADII` and shrunk where needed so that the obstacle never comes
+closer to the start or the goal than it was drawn (the distance is
+1-Lipschitz). The choice is drawn from its own stream, default_rng([seed,
+index, MOTION_STREAM]), so the field's obstacles are those of the static
+field.
 """
 
 import dataclasses
@@ -36,6 +45,7 @@ from pydrake.common.yaml import yaml_dump_typed
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.config.dynamic import Motion
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_text
 from mfi_drake.world.meshes import read_obj, write_obj
@@ -84,6 +94,9 @@ class Workspace:
 DEFAULT_WORKSPACE = Workspace()
 DEFAULT_DENSITY = 0.1  # obstacles per m³: 20 in the box
 DEFAULT_DURATION = 60.0  # s of simulated time, ≥ 3× a 1 m/s flight of the line
+CIRCLE_RADII = (1.0, 2.0)  # m, a moving obstacle's circle (set_in_motion)
+MIN_CIRCLE = 0.25  # m, an obstacle with less room to move stays put
+MOTION_STREAM = 1  # the random stream of set_in_motion
 
 
 def field_name(seed: int, index: int, density: float) -> str:
@@ -153,6 +166,53 @@ def random_field(
             os.remove(mesh_file)  # left by a redrawn convex candidate
         scenario.obstacles.append(obstacle)
     return scenario
+
+
+def circle_motion(rng: np.random.Generator, radius: float, speed: float) -> Motion:
+    """A circle of `radius` about the drawn position in a uniformly random
+    plane, at `speed` m/s from a random point: A (a sin(ωt + ψ) + b cos(ωt +
+    ψ)) with a ⟂ b unit vectors, ω = speed/A, as the per-component
+    amplitude and phase of `Motion`."""
+    a = rng.normal(size=3)
+    a /= np.linalg.norm(a)
+    b = rng.normal(size=3)
+    b -= (b @ a) * a
+    b /= np.linalg.norm(b)
+    psi = rng.uniform(0.0, 2.0 * np.pi)
+    return Motion(
+        amplitude=[float(x) for x in radius * np.hypot(a, b)],
+        angular_frequency=[speed / radius] * 3,
+        phase=[float(x) for x in psi + np.arctan2(b, a)],
+    )
+
+
+def set_in_motion(
+    scenario: sc.Scenario,
+    seed: int,
+    index: int,
+    share: float,
+    speed: float,
+    workspace: Workspace = DEFAULT_WORKSPACE,
+) -> sc.Scenario:
+    """`scenario` (field `index` of seed `seed`) with round(share × its
+    obstacle count) of its obstacles circling at `speed` m/s (see the module
+    docstring); fewer where too few have room to move."""
+    rng = np.random.default_rng([seed, index, MOTION_STREAM])
+    needed = VEHICLES[scenario.vehicle].collision_radius + workspace.clearance
+    obstacles = list(scenario.obstacles)
+    wanted = round(share * len(obstacles))
+    for k in rng.permutation(len(obstacles)):
+        if wanted == 0:
+            break
+        alone = dataclasses.replace(scenario, obstacles=[obstacles[k]])
+        room = min(obstacle_distances(alone, [scenario.start, scenario.goal])) - needed
+        radius = min(rng.uniform(*CIRCLE_RADII), room)
+        if radius < MIN_CIRCLE:
+            continue
+        motion = circle_motion(rng, radius, speed)
+        obstacles[k] = dataclasses.replace(obstacles[k], motion=motion)
+        wanted -= 1
+    return dataclasses.replace(scenario, obstacles=obstacles)
 
 
 def write_scenario(scenario: sc.Scenario, path: str, header: str = "") -> None:

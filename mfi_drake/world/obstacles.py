@@ -2,13 +2,18 @@
 
 The navigator never sees SceneGraph: sensors (`systems.sensors`,
 `systems.camera`) turn geometry into the "obstacle" reading of
-`maths.layout`. Here: registering a scenario's obstacles, the closest points
-a sphere sensor reads, and exact distances for validation and metrics.
+`maths.layout`. Here: registering a scenario's obstacles and ground, the
+closest points a sphere sensor reads, and exact distances for validation and
+metrics (at the logged times, where obstacles move).
 """
+
+import logging
 
 import numpy as np
 from pydrake.geometry import (
+    GeometryFrame,
     GeometryInstance,
+    HalfSpace,
     IllustrationProperties,
     PerceptionProperties,
     ProximityProperties,
@@ -16,77 +21,126 @@ from pydrake.geometry import (
     Rgba,
     SceneGraph,
 )
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.config.dynamic import moves
 from mfi_drake.maths.layout import OBSTACLE_COUNT, obstacle_signal
+from mfi_drake.world.motion import ObstacleFrames, obstacle_pose
 from mfi_drake.world.shapes import drake_shape, shape_mesh
 
 OBSTACLE_RGBA = Rgba(0.55, 0.55, 0.6, 0.6)
+GROUND_RGBA = Rgba(0.45, 0.6, 0.4, 1.0)
 
 
-def obstacle_pose(obstacle: sc.Obstacle) -> RigidTransform:
-    """X_WO of a scenario obstacle."""
-    return RigidTransform(
-        RollPitchYaw(np.radians(obstacle.rpy_deg)), np.asarray(obstacle.position, float)
-    )
-
-
-def obstacle_triangles(scenario: sc.Scenario, obstacle: sc.Obstacle) -> np.ndarray:
-    """(M, 3, 3) world-frame triangles of an obstacle, for drawing."""
+def obstacle_triangles(
+    scenario: sc.Scenario, obstacle: sc.Obstacle, t: float = 0.0
+) -> np.ndarray:
+    """(M, 3, 3) world-frame triangles of an obstacle at time t, for drawing."""
     vertices, tris = shape_mesh(scenario, obstacle.shape)
-    X = obstacle_pose(obstacle)
+    X = obstacle_pose(obstacle, t)
     world = (X.rotation().matrix() @ vertices.T).T + X.translation()
     return world[tris]
 
 
-def register_obstacles(scene_graph: SceneGraph, scenario: sc.Scenario) -> None:
-    """Registers every obstacle as anchored geometry with the proximity
-    (sphere sensor, clearance), perception (depth camera) and illustration
-    roles."""
+class _HalfSpaceNotice(logging.Filter):
+    """Drops Drake's one notice that half spaces take no part in deformable
+    contact (there is no contact here: the ground is sensed and measured)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "half spaces are not currently supported" not in record.getMessage()
+
+
+_HALF_SPACE_NOTICE = _HalfSpaceNotice()
+
+
+def register_obstacles(
+    scene_graph: SceneGraph, scenario: sc.Scenario
+) -> ObstacleFrames:
+    """Registers every obstacle with the proximity (sphere sensor,
+    clearance), perception (depth camera) and illustration roles: a static
+    one as anchored geometry, a moving one on a frame of its own, whose
+    poses the returned `ObstacleFrames` gives. The ground is an anchored
+    half space, sensed and measured but not illustrated (Meshcat draws no
+    half space; `app.animation` draws it)."""
     source = scene_graph.RegisterSource("obstacles")
+    moving = []
     for i, obstacle in enumerate(scenario.obstacles):
+        frame, pose = None, obstacle_pose(obstacle)
+        if moves(obstacle.motion):  # the frame carries the pose
+            frame = scene_graph.RegisterFrame(source, GeometryFrame(f"obstacle_{i}"))
+            moving.append((frame, obstacle))
+            pose = RigidTransform()
         instance = GeometryInstance(
-            obstacle_pose(obstacle),
-            drake_shape(scenario, obstacle.shape),
-            f"obstacle_{i}",
+            pose, drake_shape(scenario, obstacle.shape), f"obstacle_{i}"
         )
-        instance.set_proximity_properties(ProximityProperties())
-        perception = PerceptionProperties()
-        perception.AddProperty("phong", "diffuse", OBSTACLE_RGBA)
-        perception.AddProperty("label", "id", RenderLabel(i + 1))
-        instance.set_perception_properties(perception)
+        _sensed(instance, OBSTACLE_RGBA, i + 1)
         illustration = IllustrationProperties()
         illustration.AddProperty("phong", "diffuse", OBSTACLE_RGBA)
         instance.set_illustration_properties(illustration)
-        scene_graph.RegisterAnchoredGeometry(source, instance)
+        if frame is None:
+            scene_graph.RegisterAnchoredGeometry(source, instance)
+        else:
+            scene_graph.RegisterGeometry(source, frame, instance)
+    if scenario.ground is not None:
+        logging.getLogger("drake").addFilter(_HALF_SPACE_NOTICE)
+        ground = GeometryInstance(
+            HalfSpace.MakePose([0.0, 0.0, 1.0], [0.0, 0.0, scenario.ground.height]),
+            HalfSpace(),
+            "ground",
+        )
+        _sensed(ground, GROUND_RGBA, len(scenario.obstacles) + 1)
+        scene_graph.RegisterAnchoredGeometry(source, ground)
+    return ObstacleFrames(source, moving)
 
 
-def nearest_obstacles(query_object, p: np.ndarray, threshold: float) -> np.ndarray:
+def _sensed(instance: GeometryInstance, rgba: Rgba, label: int) -> None:
+    """The proximity role (sphere sensor, clearance) and the perception role
+    (depth camera) of an obstacle or the ground."""
+    instance.set_proximity_properties(ProximityProperties())
+    perception = PerceptionProperties()
+    perception.AddProperty("phong", "diffuse", rgba)
+    perception.AddProperty("label", "id", RenderLabel(label))
+    instance.set_perception_properties(perception)
+
+
+def nearest_obstacles(
+    query_object, p: np.ndarray, threshold: float, ignored=frozenset()
+) -> np.ndarray:
     """The "obstacle" signal: the closest point of each of the
-    OBSTACLE_COUNT proximity geometries nearest to p within `threshold`.
+    OBSTACLE_COUNT proximity geometries nearest to p within `threshold`,
+    but for the geometries of `ignored` (a vehicle's own collision sphere).
 
     Uses SceneGraph's ComputeSignedDistanceToPoint: the closest point is
-    p − d ∇d (∇d is the outward gradient), so r_o = −d ∇d. Only obstacles
-    carry the proximity role, so the vehicle never sees itself.
+    p − d ∇d (∇d is the outward gradient), so r_o = −d ∇d. Only obstacles,
+    the ground and other vehicles' spheres carry the proximity role.
     """
     results = query_object.ComputeSignedDistanceToPoint(p, threshold)
+    if ignored:
+        results = [r for r in results if r.id_G not in ignored]
     nearest = sorted(results, key=lambda r: r.distance)[:OBSTACLE_COUNT]
     return obstacle_signal([-r.distance * r.grad_W for r in nearest])
 
 
 def obstacle_distances(
-    scenario: sc.Scenario, points, within: float = np.inf
+    scenario: sc.Scenario, points, within: float = np.inf, times=None
 ) -> list[float]:
-    """Exact signed distance from each point to the nearest obstacle surface;
-    inf when no obstacle is within `within` (SceneGraph's broadphase then
-    skips the far obstacles, which is what makes a threshold cheap)."""
+    """Exact signed distance from each point to the nearest obstacle surface
+    or the ground, with the obstacles where they are at the point's time
+    (`times`, one per point; default t = 0); inf when nothing is within
+    `within` (SceneGraph's broadphase then skips the far obstacles, which is
+    what makes a threshold cheap)."""
     scene_graph = SceneGraph()
-    register_obstacles(scene_graph, scenario)
+    frames = register_obstacles(scene_graph, scenario)
     context = scene_graph.CreateDefaultContext()
-    query = scene_graph.get_query_output_port().Eval(context)
+    port = scene_graph.get_query_output_port()
+    frames.fix(scene_graph, context, 0.0)
+    query = port.Eval(context)
     out = []
-    for p in points:
+    for k, p in enumerate(points):
+        if frames.frames and times is not None:
+            frames.fix(scene_graph, context, times[k])
+            query = port.Eval(context)
         results = query.ComputeSignedDistanceToPoint(np.asarray(p, float), within)
         out.append(min((r.distance for r in results), default=np.inf))
     return out

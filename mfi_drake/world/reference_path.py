@@ -55,8 +55,9 @@ class Clearance:
     def __init__(self, scenario: sc.Scenario, radius: float):
         self.radius = radius
         self._scene_graph = SceneGraph()
-        register_obstacles(self._scene_graph, scenario)
+        frames = register_obstacles(self._scene_graph, scenario)
         self._context = self._scene_graph.CreateDefaultContext()
+        frames.fix(self._scene_graph, self._context, 0.0)  # moving ones: at t = 0
         self._query = self._scene_graph.get_query_output_port().Eval(self._context)
 
     def closest(self, p: np.ndarray, reach: float) -> tuple[float, np.ndarray]:

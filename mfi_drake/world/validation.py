@@ -1,6 +1,7 @@
 """Loading a scenario that can be flown: `config.scenario`'s checks plus the
-geometric ones (readable convex meshes; start and goal in free space with
-room for the vehicle)."""
+geometric ones (readable convex meshes; every vehicle's start and goal in
+free space with room for the vehicle, above the ground, and apart from the
+other vehicles')."""
 
 import os
 
@@ -32,13 +33,19 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
         if isinstance(obstacle.shape, sc.Convex):
             _check_mesh(f"{where}: obstacles[{i}]", scenario, obstacle.shape)
     radius = VEHICLES[scenario.vehicle].collision_radius
+    ends = [("start", scenario.start), ("goal", scenario.goal)]
+    for i, other in enumerate(scenario.other_vehicles):
+        ends += [
+            (f"other_vehicles[{i}].{n}", getattr(other, n)) for n in ("start", "goal")
+        ]
+    if scenario.ground is not None:
+        for name, point in ends:
+            _check_above_ground(where, name, point, scenario.ground.height, radius)
     try:
-        distances = obstacle_distances(scenario, [scenario.start, scenario.goal])
+        distances = obstacle_distances(scenario, [point for _, point in ends])
     except RuntimeError as e:  # a mesh Drake cannot use
         raise sc.ScenarioError(f"{where}: obstacles: {str(e).splitlines()[0]}") from e
-    for name, point, d in zip(
-        ("start", "goal"), (scenario.start, scenario.goal), distances, strict=True
-    ):
+    for (name, point), d in zip(ends, distances, strict=True):
         if d < radius:
             sc.fail(
                 where,
@@ -47,6 +54,40 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
                 f"is {d:.3f} m from an obstacle, closer than the vehicle's "
                 f"collision radius {radius:.3f} m",
             )
+    _check_apart(where, scenario, radius)
+
+
+def _check_above_ground(where, name, point, height, radius) -> None:
+    above = point[2] - height
+    if above < radius:
+        sc.fail(
+            where,
+            name,
+            point,
+            f"is {above:.3f} m above the ground at z = {height:g} m, less than "
+            f"the vehicle's collision radius {radius:.3f} m",
+        )
+
+
+def _check_apart(where: str, scenario: sc.Scenario, radius: float) -> None:
+    """No two vehicles start, or end, within their two collision radii of
+    each other (a goal shared by two vehicles is one they cannot both hold)."""
+    vehicles = [("the scenario's vehicle", "", scenario.start, scenario.goal)]
+    for i, other in enumerate(scenario.other_vehicles):
+        name = f"other_vehicles[{i}]"
+        vehicles.append((name, f"{name}.", other.start, other.goal))
+    for kind, index in (("start", 2), ("goal", 3)):
+        for j, later in enumerate(vehicles):
+            for earlier in vehicles[:j]:
+                gap = float(np.linalg.norm(np.subtract(later[index], earlier[index])))
+                if gap < 2.0 * radius:
+                    sc.fail(
+                        where,
+                        f"{later[1]}{kind}",
+                        later[index],
+                        f"is {gap:.3f} m from the {kind} of {earlier[0]}, closer "
+                        f"than their two collision radii {2.0 * radius:.3f} m",
+                    )
 
 
 def load_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> sc.Scenario:

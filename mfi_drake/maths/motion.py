@@ -1,0 +1,93 @@
+"""Moving obstacles, as plain numpy: the closed form of an obstacle's
+motion, and the estimate of an obstacle's velocity from successive
+closest-point readings (docs/dynamic.md).
+
+Motion. An obstacle at `position` with a `motion:` block is at
+
+    position(t) = position + velocity·t + amplitude·sin(angular_frequency·t + phase)
+
+per component, its orientation fixed: a pure translation.
+
+Velocity from readings. A reading is r_o, the vector from the vehicle centre
+p to the obstacle's closest point q = p + r_o. Between two readings h
+seconds apart, q moves with the obstacle, and also slides over the surface as
+the vehicle moves (round a static sphere, q follows the vehicle). Only the
+motion along the surface normal n = r_o/|r_o| is the obstacle's: the sliding
+is tangent to the surface, and for a translating convex obstacle
+n·q̇ = n·u, with u its velocity. The tangential part of u cannot be seen in
+one closest point (a sphere's spin looks like no motion at all), and it does
+not change the distance. So the estimate is u ≈ n (n·(q_k − q_{k−1})/h), the
+obstacle's normal velocity, exactly zero for a flat face and O(h) for a
+curved static surface.
+"""
+
+import numpy as np
+
+
+def displacement(velocity, amplitude, angular_frequency, phase, t) -> np.ndarray:
+    """position(t) − position: velocity·t + amplitude·sin(ω t + phase), per
+    component. `t` a number → (3,); an array of N times → (N, 3)."""
+    t = np.asarray(t, float)[..., None]
+    velocity, amplitude = np.asarray(velocity, float), np.asarray(amplitude, float)
+    omega, phase = np.asarray(angular_frequency, float), np.asarray(phase, float)
+    return velocity * t + amplitude * np.sin(omega * t + phase)
+
+
+def displacement_rate(velocity, amplitude, angular_frequency, phase, t) -> np.ndarray:
+    """d/dt of `displacement`: velocity + amplitude·ω·cos(ω t + phase)."""
+    t = np.asarray(t, float)[..., None]
+    velocity, amplitude = np.asarray(velocity, float), np.asarray(amplitude, float)
+    omega, phase = np.asarray(angular_frequency, float), np.asarray(phase, float)
+    return velocity + amplitude * omega * np.cos(omega * t + phase)
+
+
+def match_points(points: np.ndarray, before: np.ndarray, gate: float) -> list:
+    """For each row of `points` (k, 3), the index of the row of `before`
+    (m, 3) it continues, or None: pairs are taken nearest first, each row
+    of either side at most once, and only closer than `gate`."""
+    if len(points) == 0 or len(before) == 0:
+        return [None] * len(points)
+    distances = np.linalg.norm(points[:, None, :] - before[None, :, :], axis=2)
+    matched: list = [None] * len(points)
+    taken = set()
+    for flat in np.argsort(distances, axis=None):
+        i, j = np.unravel_index(flat, distances.shape)
+        if distances[i, j] >= gate:
+            break
+        if matched[i] is None and j not in taken:
+            matched[i] = int(j)
+            taken.add(int(j))
+    return matched
+
+
+def normal_velocity(r_o: np.ndarray, moved: np.ndarray, h: float) -> np.ndarray:
+    """The obstacle's velocity along the normal at the reading r_o, from the
+    closest point's displacement `moved` = q_k − q_{k−1} over h seconds:
+    n (n·moved)/h with n = r_o/|r_o|."""
+    n = r_o / np.linalg.norm(r_o)
+    return n * (n @ moved) / h
+
+
+def along_normal(r_o: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """u's component along the normal n = r_o/|r_o|."""
+    n = r_o / np.linalg.norm(r_o)
+    return n * (n @ u)
+
+
+PACE_BLEND_SPEED = 0.3  # m/s, below which `keep_own_pace` fades out
+
+
+def keep_own_pace(
+    relative: np.ndarray, own: np.ndarray, v: np.ndarray, blend_speed: float
+) -> np.ndarray:
+    """A field computed with the velocities relative to the obstacles
+    (`relative`), less the part of its difference from the field computed
+    with the vehicle's own velocity v (`own`) that lies along v: it steers
+    as the relative field does and speeds up or brakes as the own one does.
+    Fades out linearly below `blend_speed` (at rest, v gives no direction)."""
+    speed = float(np.linalg.norm(v))
+    if speed == 0.0:
+        return relative
+    along = v / speed
+    weight = min(1.0, speed / blend_speed)
+    return relative - weight * ((relative - own) @ along) * along
