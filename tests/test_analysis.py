@@ -12,6 +12,7 @@ from pydrake.systems.framework import InputPortIndex, OutputPortIndex
 from pydrake.systems.primitives import Linearize
 
 from mfi_drake.app.cli import main
+from mfi_drake.config.parameters import REPAIRS
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.analysis_diagram import build_analysis_diagram, hover_state
 from mfi_drake.flight.simulation import simulate
@@ -45,7 +46,13 @@ from mfi_drake.world.validation import load_scenario
 from .conftest import SCENARIOS
 
 PLANAR_WALL = os.path.join(SCENARIOS, "planar_wall.yaml")
-SCENARIO = load_scenario(PLANAR_WALL)
+# The gains before tuning: the models checked here (the attitude loop as a
+# linear lag, the heading's decay through it) hold while the tilt limit does
+# not bind. The tuned gains steer late and hard, at the tilt limit near the
+# wall, and their heading decays at 3.5/s against the lagged model's 6.3/s:
+# past where these models apply (docs/analysis.md).
+PRE_TUNING = "{c: 4.0, r_l: 1.5, c_perp: 0.2, r_b: 0.6, K_omega: 1.5}"
+SCENARIO = load_scenario(PLANAR_WALL, [("gains", f"navigator: {PRE_TUNING}")])
 VEHICLE = VEHICLES[SCENARIO.vehicle]
 PARAMS = SCENARIO.navigator
 
@@ -202,9 +209,18 @@ def test_gain_sweep_finds_the_routh_hurwitz_boundaries():
         assert np.all(sweep[gain]["max_real_part"][40] < 0)  # the default
 
 
-@pytest.fixture(scope="module")
-def flight():
-    return simulate(SCENARIO)
+@pytest.fixture(scope="module", params=["paper", "repaired"])
+def flight(request):
+    """The planar wall with both forms of MFI (the pre-tuning gains)."""
+    if request.param == "repaired":
+        return simulate(SCENARIO)
+    paper = "{" + ", ".join(f"{r}: false" for r in REPAIRS) + "}"
+    return simulate(
+        load_scenario(
+            PLANAR_WALL,
+            [("g", f"navigator: {PRE_TUNING}"), ("p", f"navigator: {paper}")],
+        )
+    )
 
 
 def test_zero_work_terms_do_no_work_at_field_level_but_do_through_the_lag(flight):

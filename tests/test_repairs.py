@@ -15,7 +15,8 @@ from mfi_drake.maths import fields
 from mfi_drake.maths.layout import obstacle_signal
 
 R = VEHICLES["drake_default"].collision_radius
-REPAIRED = NavigatorParams()
+# The cases below were measured with the gains before tuning (r_l = 1.5 m).
+REPAIRED = NavigatorParams(c=4.0, r_l=1.5, c_perp=0.2, r_b=0.6, K_omega=1.5)
 PAPER = paper_form(REPAIRED)
 EX, EY, EZ = np.eye(3)
 

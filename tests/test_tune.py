@@ -11,6 +11,7 @@ import pytest
 
 from mfi_drake import load_scenario
 from mfi_drake.app.cli import main
+from mfi_drake.config.parameters import GfParams, NavigatorParams
 from mfi_drake.flight.methods import METHODS, Gain
 from mfi_drake.studies.sweep import read_results
 from mfi_drake.studies.tune import (
@@ -75,7 +76,7 @@ def test_override_text_layers_onto_a_scenario():
         os.path.join(SCENARIOS, "planar_wall.yaml"), [("tune", text)]
     )
     assert scenario.navigator.c == 2.5 and scenario.gf.attraction.k_att == 1.25
-    assert scenario.navigator.r_l == 1.5  # untouched
+    assert scenario.navigator.r_l == NavigatorParams().r_l  # untouched
 
 
 def test_same_budget_and_fields_for_every_method_and_toy_optimum(
@@ -102,7 +103,7 @@ def test_same_budget_and_fields_for_every_method_and_toy_optimum(
     assert best["toy:cruise"].values["field_gains.k"] == pytest.approx(2.0, abs=0.25)
     # Candidate 0 is each method's defaults (GF's scenario gains).
     first_gf = [r for r in records if r["method"] == "gf" and r["candidate"] == 0]
-    assert first_gf[0]["gains"]["gf.k_g"] == 32.0
+    assert first_gf[0]["gains"]["gf.k_g"] == GfParams().k_g
     # A rerun flies nothing new and finds the same winners.
     again = tune(config, threads_client, progress_stream=None)
     assert len(read_results(str(toy_dir / "tune" / "tune.jsonl"))) == len(records)

@@ -509,9 +509,10 @@ def parse_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> Scenario
 
 
 def scenario_to_yaml(scenario: Scenario) -> str:
-    """The whole scenario, base_dir included, as YAML text: what travels to a
+    """The whole scenario, base_dir and every default included (a worker's
+    defaults need not be the client's), as YAML text: what travels to a
     sweep worker (Drake's SimulatorConfig does not pickle)."""
-    return yaml_dump_typed(scenario, defaults=Scenario())
+    return yaml_dump_typed(scenario)
 
 
 def scenario_from_yaml(text: str) -> Scenario:

@@ -130,11 +130,12 @@ METHODS: dict[str, Method] = {
         goal_attraction=lambda s: PotentialGoalAttraction(s.gf.attraction, _goal(s)),
         parameters="gf",
         # The gyroscopic gain and shell, the repulsion inside its safety shell
-        # (ρ₀ < r_d), and the attraction's stiffness (v_max stays 1 m/s).
+        # (ρ₀ < r_d), and the attraction's stiffness (v_max stays 1 m/s). k_g
+        # and η reach down far: a first tuning put both at their old floors.
         gains=(
-            Gain("gf.k_g", 2.0, 64.0),
+            Gain("gf.k_g", 0.1, 64.0),
             Gain("gf.r_d", 0.3, 2.0),
-            Gain("gf.eta", 0.002, 0.2),
+            Gain("gf.eta", 0.0005, 0.2),
             Gain("gf.rho_0", 0.1, 0.9, log=False, fraction_of="gf.r_d"),
             Gain("gf.attraction.k_att", 0.5, 4.0),
         ),

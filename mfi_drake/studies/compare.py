@@ -138,14 +138,18 @@ def claim_lines(results: Results, mfi: str = "mfi") -> list[str]:
 
 
 def reproduce(
-    scenario_dir: str, progress: Callable[[str], None] = print
+    scenario_dir: str,
+    progress: Callable[[str], None] = print,
+    overrides: list[tuple[str, str]] = (),
 ) -> tuple[Results, dict[str, list[Flight]]]:
-    """Flies every paper scenario with every method of the registry; returns
-    the metrics by scenario and method, and the flights by scenario."""
+    """Flies every paper scenario, with `overrides` layered on it (e.g. tuned
+    gains), with every method of the registry; returns the metrics by
+    scenario and method, and the flights by scenario."""
     results: Results = {}
     flights: dict[str, list[Flight]] = {}
     for name in PAPER_SCENARIOS:
-        scenario = load_scenario(os.path.join(scenario_dir, f"{name}.yaml"))
+        path = os.path.join(scenario_dir, f"{name}.yaml")
+        scenario = load_scenario(path, overrides)
         flights[name] = compare(scenario, list(METHODS))
         results[name] = {f.method: f.metrics for f in flights[name]}
         progress(
@@ -155,8 +159,9 @@ def reproduce(
     return results, flights
 
 
-def reproduction_report(results: Results) -> str:
-    """results.md: the table and a verdict per claim, with the figures."""
+def reproduction_report(results: Results, layered: list[str] = ()) -> str:
+    """results.md: the table and a verdict per claim, with the figures;
+    `layered` names the overrides the scenarios were flown with."""
     metrics = [m for by_method in results.values() for m in by_method.values()]
     figures = "\n".join(f"![{name}]({name}.png)" for name in results)
     return (
@@ -165,7 +170,9 @@ def reproduction_report(results: Results) -> str:
                 "# The paper's §VI-A comparison, reproduced",
                 "Written by `mfi-drake reproduce`: each scenario flown by "
                 + ", ".join(m.label for m in METHODS.values())
-                + " on the same vehicle, sensor and attitude chain.",
+                + " on the same vehicle, sensor and attitude chain"
+                + (f", with {', '.join(layered)} layered on" if layered else "")
+                + ".",
                 results_table(metrics),
                 *(
                     part
