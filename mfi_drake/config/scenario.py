@@ -112,7 +112,7 @@ class CameraImage:
     max_range: float = 6.0  # m; farther pixels are "no return"
 
 
-MEMORY_S = 2.0  # s, default of T (docs/depth_camera.md, "Memory")
+MEMORY_S = 6.0  # s, default T: max_range / v_d (docs/depth_camera.md, "Memory")
 
 
 @dataclass

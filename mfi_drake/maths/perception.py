@@ -27,6 +27,7 @@ image down); the depth image holds z-depths (inf: no return within range;
 0: closer than the camera's minimum depth). Lengths in metres.
 """
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -139,6 +140,16 @@ class Thinning:
         return Frame(points[:, v * self.width + u].T, blocks, self.grid)
 
 
+@functools.cache
+def _neighbour_blocks(rows: int, cols: int) -> tuple[np.ndarray, np.ndarray]:
+    """(a, b): each pair of blocks of a rows × cols grid side by side (across)
+    or one above the other (down), row-major indices."""
+    index = np.arange(rows * cols).reshape(rows, cols)
+    a = np.concatenate([index[:, :-1].ravel(), index[:-1, :].ravel()])
+    b = np.concatenate([index[:, 1:].ravel(), index[1:, :].ravel()])
+    return a, b
+
+
 def surface_links(frame: Frame, distance: float = SURFACE_DISTANCE) -> np.ndarray:
     """(k, 2) pairs of samples of `frame` in neighbouring blocks (across and
     down) that fit a plane at least `distance` from the camera.
@@ -151,23 +162,16 @@ def surface_links(frame: Frame, distance: float = SURFACE_DISTANCE) -> np.ndarra
     rows, cols = frame.grid
     index = np.full(rows * cols, -1)
     index[frame.blocks] = np.arange(len(frame.blocks))
-    # Per block: 1/z and the ray's x and y (NaN where the block saw nothing,
-    # so that every comparison with it is false).
-    grid = np.full((3, rows * cols), np.nan)
+    a, b = _neighbour_blocks(rows, cols)
+    i, j = index[a], index[b]
+    both = (i >= 0) & (j >= 0)
+    i, j = i[both], j[both]
     z = frame.points[:, 2]
-    grid[0, frame.blocks] = distance / z
-    grid[1:, frame.blocks] = frame.points[:, :2].T / z
-    grid, index = grid.reshape(3, rows, cols), index.reshape(rows, cols)
-    pairs = []
-    for a, b in (
-        (np.s_[:, :-1], np.s_[:, 1:]),  # across
-        (np.s_[:-1, :], np.s_[1:, :]),  # down
-    ):
-        g, h = grid[(slice(None), *a)], grid[(slice(None), *b)]
-        step = np.hypot(g[1] - h[1], g[2] - h[2])
-        joined = np.abs(g[0] - h[0]) <= step
-        pairs.append(np.stack([index[a][joined], index[b][joined]], axis=1))
-    return np.concatenate(pairs)
+    w = (distance / z).astype(float)
+    x = (frame.points[:, 0] / z).astype(float)
+    y = (frame.points[:, 1] / z).astype(float)
+    joined = np.abs(w[i] - w[j]) <= np.hypot(x[i] - x[j], y[i] - y[j])
+    return np.stack([i[joined], j[joined]], axis=1)
 
 
 def seen_again(
@@ -187,19 +191,17 @@ def seen_again(
 
     X_CW = (R_CW, p_CW) is the camera pose the frame is placed with."""
     q = points @ R_CW.T + p_CW
-    z = q[:, 2]
-    ahead = z > 0.0
-    u = np.full(len(q), -1)
-    v = np.full(len(q), -1)
-    u[ahead] = np.rint(camera.focal_x * q[ahead, 0] / z[ahead] + camera.center_x)
-    v[ahead] = np.rint(camera.focal_y * q[ahead, 1] / z[ahead] + camera.center_y)
-    inside = ahead & (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
-    measured = depth[v[inside], u[inside]].astype(float)
+    ahead = np.flatnonzero(q[:, 2] > 0.0)
+    x, y, z = q[ahead].T
+    u = np.rint(camera.focal_x * x / z + camera.center_x)
+    v = np.rint(camera.focal_y * y / z + camera.center_y)
+    inside = (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
+    measured = depth[v[inside].astype(int), u[inside].astype(int)].astype(float)
     limit = measured + margin
     limit[np.isinf(measured)] = max_range
     limit[measured <= 0.0] = 0.0
     cleared = np.zeros(len(q), dtype=bool)
-    cleared[inside] = z[inside] < limit
+    cleared[ahead[inside]] = z[inside] < limit
     return cleared
 
 
@@ -215,7 +217,7 @@ def remember(
     """The memory after a frame at `time`: without the `cleared` samples,
     those seen `duration` or more ago and those farther than `reach` from
     `position`; with the frame's `new_points` (world frame) added."""
-    near = np.sum((memory.points - position) ** 2, axis=1) <= reach * reach
+    near = _squared_distances(memory.points.T, position) <= reach * reach
     keep = ~cleared & (time - memory.times < duration) & near
     return Memory(
         np.concatenate([memory.points[keep], new_points]),
@@ -291,31 +293,29 @@ def _squared_distances(xyz: np.ndarray, position: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Groups:
-    """Points in groups: columns starts[i] to starts[i + 1] − 1 of xyz
-    (3, n) are group i's."""
+    """Points in groups: columns lo to hi − 1 of xyz (3, n) are a group's,
+    for each (lo, hi) in bounds."""
 
     xyz: np.ndarray
-    starts: np.ndarray
+    bounds: list[tuple[int, int]]
 
     @staticmethod
     def of(points: np.ndarray, labels: np.ndarray) -> "Groups":
         """The points (n, 3) grouped by their labels."""
         order = np.argsort(labels, kind="stable")
-        starts = np.flatnonzero(np.diff(labels[order], prepend=-1))
-        return Groups(np.ascontiguousarray(points[order].T), starts)
+        starts = np.flatnonzero(np.diff(labels[order], prepend=-1)).tolist()
+        ends = [*starts[1:], len(labels)] if starts else []
+        bounds = list(zip(starts, ends, strict=True))
+        return Groups(np.ascontiguousarray(points[order].T), bounds)
 
     def nearest(self, position: np.ndarray) -> np.ndarray:
         """(k, 3): the vector from `position` to each group's nearest point,
         nearest first."""
-        if len(self.starts) == 0:
-            return np.zeros((0, 3))
-        d2 = _squared_distances(self.xyz, position)
-        ends = np.append(self.starts[1:], len(d2))
-        out = []
-        for i in np.argsort(np.minimum.reduceat(d2, self.starts)):
-            lo = self.starts[i]
-            out.append(self.xyz[:, lo + np.argmin(d2[lo : ends[i]])] - position)
-        return np.array(out)
+        d = self.xyz - position[:, None]
+        d2 = np.einsum("ij,ij->j", d, d)
+        best = [lo + int(np.argmin(d2[lo:hi])) for lo, hi in self.bounds]
+        best.sort(key=d2.__getitem__)
+        return d[:, best].T
 
 
 # --- one frame of the rig -------------------------------------------------------
@@ -349,7 +349,7 @@ class Percept:
 
     @staticmethod
     def empty() -> "Percept":
-        return Percept(Memory.empty(), Groups(np.zeros((3, 0)), np.zeros(0, int)))
+        return Percept(Memory.empty(), Groups(np.zeros((3, 0)), []))
 
 
 def fuse(
@@ -390,7 +390,9 @@ def read(
         start += len(frame.points)
     graph = voxel_graph(memory.points, np.concatenate(links))
     basins = nearest_basins(memory.points, graph, position, count)
-    mine = np.isin(graph.voxel_of, basins)
+    chosen = np.zeros(graph.count, dtype=bool)
+    chosen[basins] = True
+    mine = chosen[graph.voxel_of]
     return Percept(memory, Groups.of(memory.points[mine], graph.voxel_of[mine]))
 
 
