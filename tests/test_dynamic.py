@@ -12,6 +12,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 
 from mfi_drake.app.cli import main
+from mfi_drake.app.figures import plot_flights
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground, Motion, OtherVehicle, RelativeVelocity
 from mfi_drake.flight.diagram import build_diagram
@@ -91,10 +92,12 @@ def test_clearance_to_a_moving_sphere_is_exact_at_every_time():
     )
 
 
-def test_flight_clearance_to_a_moving_obstacle_is_the_closed_form():
+def test_flight_clearance_to_a_moving_obstacle_is_the_closed_form(tmp_path):
     scenario = load_scenario(os.path.join(SCENARIOS, "moving_head_on.yaml"))
     scenario.duration = 12.0
     flight = simulate(scenario)
+    plot_flights(scenario, [flight], str(tmp_path / "moving.png"))
+    assert (tmp_path / "moving.png").stat().st_size > 0
     centres = obstacle_position(scenario.obstacles[0], flight.times)
     distance = np.linalg.norm(flight.positions - centres, axis=1) - 0.6
     exact = distance.min() - flight.collision_radius
@@ -287,6 +290,7 @@ def test_two_vehicles_run_json_has_every_vehicle_and_the_separation(capsys, tmp_
         assert metrics[key] == first[key]  # the first vehicle's keys are kept
     assert metrics["min_separation"] > 0
     assert metrics["success"] == all(v["success"] for v in metrics["vehicles"])
+    assert (tmp_path / "trajectory.png").stat().st_size > 0  # every vehicle drawn
     assert metrics["outcome"] == "success"
 
 

@@ -1,6 +1,9 @@
 """The figures: a scenario's flights (the paper's Figs 5–9, 11: the 3-D path
 with the obstacles, the path length and the position error over time) and
-the sweep's success rates and path ratios.
+the sweep's success rates and path ratios. A moving obstacle is drawn where
+it was at the start (faint) and at the end, with its centre's path dashed;
+the other vehicles' paths are dashed in their method's colour; a ground is a
+green plane under the scene.
 
 Figures are `matplotlib.figure.Figure` objects, never pyplot's: drawing
 here leaves the user's matplotlib backend alone. `write_figure` is the one
@@ -11,10 +14,12 @@ import numpy as np
 from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
+from mfi_drake.config.dynamic import moves
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.files import atomic_path
 from mfi_drake.flight.methods import appearance
 from mfi_drake.flight.simulation import outcome as flight_outcome
+from mfi_drake.world.motion import obstacle_position
 from mfi_drake.world.obstacles import obstacle_triangles
 
 OUTCOME_WORDS = {"success": "reached", "collision": "collided", "timeout": "failed"}
@@ -27,17 +32,31 @@ def write_figure(fig: Figure, path: str, dpi: int = 110) -> None:
         fig.savefig(tmp, dpi=dpi, format=path.rsplit(".", 1)[-1])
 
 
-def draw_obstacles(ax, scenario: Scenario) -> None:
+def draw_obstacles(ax, scenario: Scenario, times=(0.0,)) -> None:
+    """The obstacles at times[0] and, those that move, at times[-1] too (the
+    first faint) with their centre's path over `times` dashed."""
     for obstacle in scenario.obstacles:
-        triangles = obstacle_triangles(scenario, obstacle)
-        ax.add_collection3d(
-            Poly3DCollection(
-                triangles,
-                facecolor=(0.6, 0.6, 0.65, 0.35),
-                edgecolor=(0.4, 0.4, 0.45, 0.15),
-                linewidth=0.3,
+        moving = moves(obstacle.motion)
+        for t, alpha in (
+            [(times[0], 0.12), (times[-1], 0.35)] if moving else [(0, 0.35)]
+        ):
+            ax.add_collection3d(
+                Poly3DCollection(
+                    obstacle_triangles(scenario, obstacle, t),
+                    facecolor=(0.6, 0.6, 0.65, alpha),
+                    edgecolor=(0.4, 0.4, 0.45, alpha / 2),
+                    linewidth=0.3,
+                )
             )
-        )
+        if moving:
+            centres = obstacle_position(obstacle, np.asarray(times))
+            ax.plot(*centres.T, color="grey", ls="--", lw=0.8)
+
+
+def draw_ground(ax, height: float) -> None:
+    """A plane at z = height over the axes' x and y limits."""
+    x, y = np.meshgrid(ax.get_xlim(), ax.get_ylim())
+    ax.plot_surface(x, y, np.full_like(x, height), color=(0.45, 0.6, 0.4), alpha=0.25)
 
 
 def _equal_box(ax, points: np.ndarray) -> None:
@@ -55,35 +74,49 @@ def plot_flights(scenario: Scenario, flights: list, path: str, title: str = "") 
     ax3d = fig.add_subplot(1, 2, 1, projection="3d")
     ax_len = fig.add_subplot(2, 2, 2)
     ax_err = fig.add_subplot(2, 2, 4)
-    draw_obstacles(ax3d, scenario)
+    times = flights[0].times if flights else np.zeros(1)
+    draw_obstacles(ax3d, scenario, times)
     start, goal = np.asarray(scenario.start), np.asarray(scenario.goal)
     corners = [start, goal]
     for obstacle in scenario.obstacles:
-        corners.append(np.asarray(obstacle.position))
+        corners.append(obstacle_position(obstacle, times))
     for flight in flights:
         label, colour = appearance(flight.method)
         outcome = OUTCOME_WORDS[flight_outcome(flight.metrics)]
-        p = flight.positions
-        corners.append(p)
-        ax3d.plot(
-            p[:, 0],
-            p[:, 1],
-            p[:, 2],
-            color=colour,
-            lw=1.8,
-            label=f"{label} ({outcome})",
+        for k, flown in enumerate([flight, *flight.others]):
+            first = k == 0  # the scenario's own vehicle; the others dashed
+            style = {"color": colour, "ls": "-" if first else "--"}
+            p = flown.positions
+            corners.append(p)
+            ax3d.plot(
+                p[:, 0],
+                p[:, 1],
+                p[:, 2],
+                lw=1.8 if first else 1.0,
+                label=f"{label} ({outcome})" if first else None,
+                **style,
+            )
+            steps = np.linalg.norm(np.diff(p, axis=0), axis=1)
+            length = np.concatenate([[0.0], np.cumsum(steps)])
+            ax_len.plot(flown.times, length, label=label if first else None, **style)
+            error = np.linalg.norm(p - np.asarray(flown.scenario.goal), axis=1)
+            ax_err.plot(flown.times, error, label=label if first else None, **style)
+    ends = [(start, goal)] + [(o.start, o.goal) for o in scenario.other_vehicles]
+    for k, (a, b) in enumerate(ends):
+        ax3d.scatter(
+            *a, color="black", marker="o", s=40, label="start" if k == 0 else None
         )
-        steps = np.linalg.norm(np.diff(p, axis=0), axis=1)
-        length = np.concatenate([[0.0], np.cumsum(steps)])
-        ax_len.plot(flight.times, length, color=colour, label=label)
-        ax_err.plot(
-            flight.times, np.linalg.norm(p - goal, axis=1), color=colour, label=label
+        ax3d.scatter(
+            *b,
+            color="gold",
+            edgecolor="black",
+            marker="*",
+            s=160,
+            label="goal" if k == 0 else None,
         )
-    ax3d.scatter(*start, color="black", marker="o", s=40, label="start")
-    ax3d.scatter(
-        *goal, color="gold", edgecolor="black", marker="*", s=160, label="goal"
-    )
     _equal_box(ax3d, np.vstack([np.atleast_2d(c) for c in corners]))
+    if scenario.ground is not None:
+        draw_ground(ax3d, scenario.ground.height)
     ax3d.set_xlabel("x [m]")
     ax3d.set_ylabel("y [m]")
     ax3d.set_zlabel("z [m]")

@@ -64,13 +64,16 @@ def normal_velocity(r_o: np.ndarray, moved: np.ndarray, h: float) -> np.ndarray:
     """The obstacle's velocity along the normal at the reading r_o, from the
     closest point's displacement `moved` = q_k − q_{k−1} over h seconds:
     n (n·moved)/h with n = r_o/|r_o|."""
-    n = r_o / np.linalg.norm(r_o)
-    return n * (n @ moved) / h
+    return along_normal(r_o, moved) / h
 
 
 def along_normal(r_o: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """u's component along the normal n = r_o/|r_o|."""
-    n = r_o / np.linalg.norm(r_o)
+    """u's component along the normal n = r_o/|r_o| (zero where r_o = 0: at
+    the surface there is no normal to take)."""
+    distance = np.linalg.norm(r_o)
+    if distance == 0.0:
+        return np.zeros(3)
+    n = r_o / distance
     return n * (n @ u)
 
 
