@@ -5,6 +5,8 @@ import itertools
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mfi_drake.maths.perception import (
     BLOCK,
@@ -13,6 +15,7 @@ from mfi_drake.maths.perception import (
     Intrinsics,
     Memory,
     Thinning,
+    components,
     nearest_basins,
     remember,
     seen_again,
@@ -110,10 +113,13 @@ def test_seen_again_clears_free_space_and_sightings_but_not_what_is_hidden():
     depth = np.full((CAMERA.height, CAMERA.width), 3.0)
     depth[:, :10] = np.inf  # no return within range
     depth[:, -10:] = 0.0  # closer than the minimum depth
-    # z along +z at the image centre, and at the left edge (u = 2).
-    centre = np.array([0.0, 0.0, 1.0])
-    left = np.array([(2 - CAMERA.center_x) / CAMERA.focal_x, 0.0, 1.0])
-    right = np.array([(77 - CAMERA.center_x) / CAMERA.focal_x, 0.0, 1.0])
+
+    # Rays through the image centre, through columns u = 6 (no return) and
+    # u = 73 (too close), and through u = 1, within BLOCK of the edge.
+    def ray(u):
+        return np.array([(u - CAMERA.center_x) / CAMERA.focal_x, 0.0, 1.0])
+
+    centre = ray(CAMERA.center_x)
     points = np.array(
         [
             2.0 * centre,  # in front of the measured 3 m: free space
@@ -121,13 +127,24 @@ def test_seen_again_clears_free_space_and_sightings_but_not_what_is_hidden():
             4.0 * centre,  # behind it: hidden, kept
             [0.0, 5.0, 1.0],  # outside the image: kept
             -2.0 * centre,  # behind the camera: kept
-            5.0 * left,  # no return: free up to max_range 6
-            7.0 * left,  # beyond max_range: kept
-            0.5 * right,  # a too-close pixel shows nothing: kept
+            5.0 * ray(6),  # no return: free up to max_range 6
+            7.0 * ray(6),  # beyond max_range: kept
+            0.5 * ray(73),  # a too-close pixel shows nothing: kept
+            2.0 * ray(1),  # the edge of the image clears nothing: kept
         ]
     )
     cleared = seen_again(points, np.eye(3), np.zeros(3), CAMERA, depth, 6.0)
-    assert cleared.tolist() == [True, True, False, False, False, True, False, False]
+    assert cleared.tolist() == [
+        True,
+        True,
+        False,
+        False,
+        False,
+        True,
+        False,
+        False,
+        False,
+    ]
 
 
 def test_seen_again_uses_the_camera_pose():
@@ -159,6 +176,41 @@ def box_surface(low, high, step=0.05) -> np.ndarray:
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
     on_face = np.any(np.isclose(grid, low) | np.isclose(grid, high), axis=1)
     return grid[on_face]
+
+
+def bfs_components(n, edges):
+    """Labels by breadth-first search (the oracle)."""
+    neighbours = [[] for _ in range(n)]
+    for a, b in edges:
+        neighbours[a].append(b)
+        neighbours[b].append(a)
+    label = [-1] * n
+    for start in range(n):
+        if label[start] < 0:
+            label[start], queue = start, [start]
+            while queue:
+                for m in neighbours[queue.pop()]:
+                    if label[m] < 0:
+                        label[m] = start
+                        queue.append(m)
+    return label
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(1, 40).flatmap(
+        lambda n: st.tuples(
+            st.just(n),
+            st.lists(st.tuples(st.integers(0, n - 1), st.integers(0, n - 1))),
+        )
+    )
+)
+def test_components_match_breadth_first_search(graph):
+    n, edges = graph
+    edges = np.array(edges, dtype=int).reshape(-1, 2)
+    labels = components(n, edges[:, 0], edges[:, 1])
+    # Both label each node by the smallest node of its component.
+    assert labels.tolist() == bfs_components(n, edges.tolist())
 
 
 def box_closest_point(low, high, p) -> np.ndarray:
@@ -220,18 +272,39 @@ def test_two_separated_boxes_are_two_readings_nearest_first():
     np.testing.assert_allclose(seen, exact, atol=0.05)
 
 
+def union_of_spheres(centres, radius) -> np.ndarray:
+    """Samples of the surface of a union of spheres, as seen from P."""
+    points = np.concatenate([sphere_seen_from(c, radius, P) for c in centres])
+    inside = [np.linalg.norm(points - c, axis=1) < radius - 1e-9 for c in centres]
+    return points[~np.any(inside, axis=0)]
+
+
 def test_overlapping_spheres_are_a_reading_each():
-    # Two spheres of radius 0.6 whose centres are 1 m apart: one connected
-    # surface, two obstacles in the way (each bulges toward the vehicle).
-    centres = [np.array([2.0, -0.5, 0.0]), np.array([2.0, 0.5, 0.0])]
-    points = np.concatenate([sphere_seen_from(c, 0.6, P) for c in centres])
-    inside = [np.linalg.norm(points - c, axis=1) < 0.6 - 1e-9 for c in centres]
-    points = points[~(inside[0] | inside[1])]  # the union's surface
+    # Spheres of radius 0.6 whose centres are 1.1 m apart: one connected
+    # surface, two obstacles (each pole 1.47 m away bulges 0.29 m toward
+    # the vehicle from the groove between them, 1.76 m away).
+    centres = [np.array([2.0, -0.55, 0.0]), np.array([2.0, 0.55, 0.0])]
     exact = [c - 0.6 * c / np.linalg.norm(c) for c in centres]
-    seen = readings(points, P)
+    seen = readings(union_of_spheres(centres, 0.6), P)
     assert len(seen) == 2
     order = np.argsort([seen[0][1], seen[1][1]])
     np.testing.assert_allclose(seen[order], exact, atol=0.05)
+
+
+def test_a_dip_shallower_than_dip_is_not_another_obstacle():
+    # Centres 0.6 m apart: each pole (1.42 m away) lies only 0.06 m below the
+    # groove (1.48 m) on the way to the other (less on the voxels, whose
+    # distance is their nearest sample's), so the union is one obstacle,
+    # read at either pole (both are equally near).
+    centres = [np.array([2.0, -0.3, 0.0]), np.array([2.0, 0.3, 0.0])]
+    points = union_of_spheres(centres, 0.6)
+    exact = centres[0] - 0.6 * centres[0] / np.linalg.norm(centres[0])
+    seen = readings(points, P)
+    assert len(seen) == 1
+    assert np.linalg.norm(seen[0]) == pytest.approx(np.linalg.norm(exact), abs=0.02)
+    # Without the dip test both poles are minima.
+    graph = voxel_graph(points)
+    assert len(nearest_basins(points, graph, P, 3, dip=0.0)) == 2
 
 
 def test_readings_of_a_voxel_are_its_nearest_sample_as_the_vehicle_moves():

@@ -18,9 +18,11 @@ in four steps:
    on one surface (`surface_links`: a wall seen edge-on is sampled ever
    more sparsely with range, but stays one surface).
 4. `nearest_basins`: an obstacle is a local minimum of the distance to the
-   vehicle on that graph; the readings are the nearest sample of each of
-   the nearest minima, nearest first (the reading of `layout`), re-read
-   from that minimum's voxel as the vehicle moves until the next frame.
+   vehicle on that graph that persists (it is not a dip of less than DIP
+   on the way to a deeper one); the readings are the nearest sample
+   of each of the nearest minima, nearest first (the reading of `layout`),
+   re-read from that minimum's voxel as the vehicle moves until the next
+   frame.
 
 Frames: C is Drake's camera frame (+z along the view, +x image right, +y
 image down); the depth image holds z-depths (inf: no return within range;
@@ -42,6 +44,10 @@ VOXEL = 0.2
 # from the camera [m]: below the collision radius of either vehicle, so any
 # wall the vehicle can be beside without touching qualifies.
 SURFACE_DISTANCE = 0.2
+# A local minimum of the distance that rises less than this [m] on the way to
+# a deeper one is not another obstacle: about the samples' spacing 1.5 m away
+# (4 pixels of 0.5°), where MFI's boundary following starts.
+DIP = 0.05
 # A remembered sample within this distance [m] in front of or behind the
 # measured depth along its pixel counts as seen again (covers the pixel's
 # footprint at a grazing view and the pose estimate's drift between frames).
@@ -184,10 +190,16 @@ def seen_again(
     margin: float = DEPTH_MARGIN,
 ) -> np.ndarray:
     """Which world points (m, 3) a frame clears: those in its view frustum
-    (in front of the camera, projecting into the image) that are not hidden
-    behind what their pixel measured, i.e. z < depth + margin. A pixel with
-    no return shows free space up to max_range; one closer than the minimum
-    depth (0) shows none.
+    (in front of the camera, projecting into the image at least BLOCK
+    pixels from its edge) that are not hidden behind what their pixel
+    measured, i.e. z < depth + margin. A pixel with no return shows free
+    space up to max_range; one closer than the minimum depth (0) shows none.
+
+    The outermost BLOCK pixels clear nothing: the edge of the image is the
+    edge of what was seen, not of the obstacle, and there the thinned frame
+    (one sample a block, up to BLOCK − 1 pixels in) would not replace what
+    it cleared, cutting the remembered surface beyond the edge off the
+    surface in view.
 
     X_CW = (R_CW, p_CW) is the camera pose the frame is placed with."""
     q = points @ R_CW.T + p_CW
@@ -195,7 +207,8 @@ def seen_again(
     x, y, z = q[ahead].T
     u = np.rint(camera.focal_x * x / z + camera.center_x)
     v = np.rint(camera.focal_y * y / z + camera.center_y)
-    inside = (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
+    inside = (u >= BLOCK) & (u < camera.width - BLOCK)
+    inside &= (v >= BLOCK) & (v < camera.height - BLOCK)
     measured = depth[v[inside].astype(int), u[inside].astype(int)].astype(float)
     limit = measured + margin
     limit[np.isinf(measured)] = max_range
@@ -257,18 +270,48 @@ def voxel_graph(
     return VoxelGraph(voxel_of, len(occupied), a, b)
 
 
-def nearest_basins(
-    points: np.ndarray, graph: VoxelGraph, position: np.ndarray, count: int
-) -> np.ndarray:
-    """The voxels of the `count` nearest local minima of the distance to
-    `position`, nearest first: the voxels whose nearest sample is nearer
-    than every neighbour's (ties to the lower voxel index).
+def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Connected components of the graph on nodes 0…n−1 with edges (a_i,
+    b_i): each node's label is the smallest node of its component.
 
-    Each is one obstacle as the vehicle sees it: a convex obstacle has one
-    minimum on its surface, a wall seen edge-on one (the distance grows
-    along it), and obstacles that touch or overlap one each where each
-    bulges toward the vehicle."""
-    d = _squared_distances(points.T, position)
+    Every round hooks the larger root of each edge whose ends differ onto
+    the smaller one, then follows the pointers to the roots (pointer
+    jumping); labels only decrease, so the rounds end."""
+    label = np.arange(n)
+    while True:
+        la, lb = label[a], label[b]
+        differ = la != lb
+        if not differ.any():
+            return label
+        la, lb = la[differ], lb[differ]
+        np.minimum.at(label, np.maximum(la, lb), np.minimum(la, lb))
+        while True:
+            jumped = label[label]
+            if np.array_equal(jumped, label):
+                break
+            label = jumped
+
+
+def nearest_basins(
+    points: np.ndarray,
+    graph: VoxelGraph,
+    position: np.ndarray,
+    count: int,
+    dip: float = DIP,
+) -> np.ndarray:
+    """The voxels of the `count` nearest obstacles seen from `position`,
+    nearest first: the local minima of the distance (a voxel's: that of its
+    nearest sample) on the graph that persist, i.e. whose connected
+    component among the voxels no farther than the minimum plus `dip`
+    holds nothing nearer (ties to the lower voxel index).
+
+    A convex obstacle has one minimum on its surface, a wall seen edge-on
+    one (the distance grows along it), and obstacles that touch or overlap
+    one each where each bulges toward the vehicle by more than about `dip`
+    (on the voxels, whose distance is their nearest sample's). A
+    minimum that rises less than that before reaching a deeper one is an
+    artefact of the sampling (sparse or old samples of the same surface)."""
+    d = np.sqrt(_squared_distances(points.T, position))
     nearest = np.full(graph.count, np.inf)
     np.minimum.at(nearest, graph.voxel_of, d)
     a, b = graph.a, graph.b
@@ -278,7 +321,18 @@ def nearest_basins(
     beaten[b[a_first]] = True
     beaten[a[~a_first & (a != b)]] = True
     minima = np.flatnonzero(~beaten)
-    return minima[np.argsort(nearest[minima], kind="stable")[:count]]
+    found = []
+    for m in minima[np.argsort(nearest[minima], kind="stable")]:
+        if len(found) == count:
+            break
+        if found:  # the nearest minimum always persists
+            level = nearest[m] + dip
+            low = (nearest[a] <= level) & (nearest[b] <= level)
+            label = components(graph.count, a[low], b[low])
+            if nearest[label == label[m]].min() < nearest[m]:
+                continue
+        found.append(m)
+    return np.array(found, dtype=int)
 
 
 def _squared_distances(xyz: np.ndarray, position: np.ndarray) -> np.ndarray:
