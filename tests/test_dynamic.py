@@ -5,6 +5,8 @@ JSON, and every bad input of these formats as one line with exit status 2."""
 
 import json
 import os
+import sys
+from functools import partial
 
 import numpy as np
 import pytest
@@ -28,6 +30,13 @@ from mfi_drake.maths.motion import (
     displacement_rate,
     keep_own_pace,
     match_points,
+)
+from mfi_drake.studies.sweep import (
+    SweepConfig,
+    motion_variant,
+    read_results,
+    run_sweep,
+    with_overrides,
 )
 from mfi_drake.systems.navigation import MfiNavigator
 from mfi_drake.systems.relative import ObstacleVelocityEstimator, relative_navigator
@@ -404,3 +413,40 @@ def test_other_vehicles_fly_with_the_sphere_sensor_only(write_yaml):
     with pytest.raises(sc.ScenarioError, match="sphere sensor only"):
         load_scenario(write_yaml(text))
     assert OtherVehicle().start != OtherVehicle().goal and Ground().height == 0.0
+
+
+def test_a_sweep_with_moving_obstacles_keys_and_counts_them(tmp_path, threads_client):
+    config = SweepConfig(
+        n=1,
+        seed=7,
+        methods=["mfi"],
+        out=str(tmp_path),
+        moving=0.3,
+        obstacle_speed=0.5,
+        variant=motion_variant(0.3, 0.5),
+    )
+    run = run_sweep(
+        config,
+        threads_client,
+        modify=partial(with_overrides, overrides=[("short", "duration: 2.0")]),
+        progress_stream=sys.stdout,
+    )
+    assert (run.ran, run.lost) == (1, [])
+    (record,) = read_results(str(tmp_path / "results.jsonl"))
+    assert record["variant"] == "moving=0.3,obstacle_speed=0.5"
+    assert record["moving"] == round(0.3 * record["obstacles"])
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--moving", "1.5", "--obstacle-speed", "0.5"], "--moving"),
+        (["--moving", "nan", "--obstacle-speed", "0.5"], "--moving"),
+        (["--moving", "0.3"], "--obstacle-speed"),
+        (["--moving", "0.3", "--obstacle-speed", "inf"], "--obstacle-speed"),
+    ],
+)
+def test_sweep_rejects_bad_motion_arguments(tmp_path, capsys, args, named):
+    assert main(["sweep", "--out", str(tmp_path), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and named in err
