@@ -125,7 +125,8 @@ def table(args, rows) -> str:
             f"{s['median_path_ratio']:.3f} [{ci[0]:.3f}, {ci[1]:.3f}]"
         )  # fmt: skip
         lines.append(
-            f"| {speed:g} | {way} | {method} | {s['n']} | {rate_cell(s, 'success')} "
+            f"| {speed:g} | {way if speed else '(nothing moves)'} | {method} "
+            f"| {s['n']} | {rate_cell(s, 'success')} "
             f"| {rate_cell(s, 'collision')} | {rate_cell(s, 'timeout')} | {ratio} "
             f"| {'–' if error is None else f'{error:.2f}'} |"
         )

@@ -179,10 +179,10 @@ def test_own_pace_keeps_the_own_fields_part_along_v():
     v = np.array([2.0, 0.0, 0.0])
     relative, own = np.array([1.0, 2.0, 3.0]), np.array([-4.0, 0.0, 0.0])
     np.testing.assert_allclose(keep_own_pace(relative, own, v, 0.3), [-4.0, 2.0, 3.0])
-    # At rest the relative field acts whole; below the blend speed, in part.
-    np.testing.assert_allclose(keep_own_pace(relative, own, 0 * v, 0.3), relative)
+    # At rest the own field acts alone; below the blend speed, in part.
+    np.testing.assert_allclose(keep_own_pace(relative, own, 0 * v, 0.3), own)
     slow = keep_own_pace(relative, own, np.array([0.15, 0, 0]), 0.3)
-    np.testing.assert_allclose(slow, [-1.5, 2.0, 3.0])
+    np.testing.assert_allclose(slow, [-4.0, 1.0, 1.5])
 
 
 @pytest.mark.parametrize("own_pace", [True, False])

@@ -59,8 +59,9 @@ class RelativeVelocity:
 
     enabled: bool = True
     # Steer with the relative velocities, keep the pace of the own velocity:
-    # the difference the relative velocities make is taken across v only
-    # (`maths.motion.keep_own_pace`). False: the relative fields as they are.
+    # the difference the relative velocities make is taken across v only,
+    # and not at all at rest (`maths.motion.keep_own_pace`). False: the
+    # relative fields as they are.
     own_pace: bool = True
     rate_hz: float = 20.0  # readings sampled per second (a camera: its frames)
     time_constant: float = 0.1  # s, of the first-order low pass on the estimate

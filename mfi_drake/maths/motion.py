@@ -77,7 +77,7 @@ def along_normal(r_o: np.ndarray, u: np.ndarray) -> np.ndarray:
     return n * (n @ u)
 
 
-PACE_BLEND_SPEED = 0.3  # m/s, below which `keep_own_pace` fades out
+PACE_BLEND_SPEED = 0.3  # m/s, below which `keep_own_pace` fades to `own`
 
 
 def keep_own_pace(
@@ -87,10 +87,11 @@ def keep_own_pace(
     (`relative`), less the part of its difference from the field computed
     with the vehicle's own velocity v (`own`) that lies along v: it steers
     as the relative field does and speeds up or brakes as the own one does.
-    Fades out linearly below `blend_speed` (at rest, v gives no direction)."""
+    Below `blend_speed` it fades linearly to `own`: a vehicle holding a
+    point (at rest v gives no direction) is flown as in a static scene."""
     speed = float(np.linalg.norm(v))
     if speed == 0.0:
-        return relative
+        return own
     along = v / speed
-    weight = min(1.0, speed / blend_speed)
-    return relative - weight * ((relative - own) @ along) * along
+    paced = relative - ((relative - own) @ along) * along
+    return own + min(1.0, speed / blend_speed) * (paced - own)
