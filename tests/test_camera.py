@@ -215,8 +215,9 @@ def test_two_separated_boxes_give_two_readings_and_one_box_one():
 
 def test_a_wall_seen_edge_on_is_one_obstacle():
     # A 10 m wall 0.9 m to the left, running along the view out of range: its
-    # samples are ever sparser with range (0.2 m apart at 4 m), but it is one
-    # surface, read at its exact closest point (its near end, in view).
+    # samples are ever sparser with range (0.6 m apart at 4 m, one a 4×4
+    # block), but it is one surface, read at its exact closest point (its
+    # near end, in view).
     wall = (Box(size=[10.0, 0.1, 3.0]), [7.0, 0.95, HEIGHT])
     seen, exact = first_frame([wall])
     assert len(seen) == 1

@@ -388,9 +388,9 @@ class View:
 @dataclass(frozen=True)
 class Percept:
     """What the cameras know after a frame: the memory, and the samples of
-    the voxel of each of the nearest local minima (`nearest_basins`) seen
-    from the vehicle at the frame, whose nearest sample is read until the
-    next frame.
+    the voxel of each of the nearest obstacles (`nearest_basins`) seen from
+    the vehicle at the frame, each read by its nearest sample until the next
+    frame.
 
     Immutable (its arrays are never written after construction), so the
     copies Drake makes of a context's state share it."""

@@ -15,9 +15,9 @@ pose; the obstacles carry the perception role, the vehicle's own shapes do
 not. Drake's DepthImageToPointCloud back-projects the image in the camera
 frame. `DepthCameraSensor` places that cloud in the world with the
 controller's state estimate, as an on-board computer would, and keeps the
-percept of `maths.perception` (memory, segments) in abstract state, updated
-at the rig's rate; between frames the reading is that percept seen from the
-estimated position.
+percept of `maths.perception` (the memory and the voxels of the nearest
+obstacles) in abstract state, updated at the rig's rate; between frames each
+reading is re-read from its obstacle's voxel as the estimated position moves.
 """
 
 from dataclasses import dataclass
@@ -107,13 +107,8 @@ class CameraModel:
         )
         self.X_BC = RigidTransform(camera.X_BC)
         self.max_range = float(camera.image.max_range)
-        # The vehicle centre (body origin) in C.
-        self.thinning = Thinning(
-            unit_rays(info),
-            info.width(),
-            info.height(),
-            self.X_BC.inverse().translation(),
-        )
+        centre = self.X_BC.inverse().translation()  # the body origin in C
+        self.thinning = Thinning(unit_rays(info), info.width(), info.height(), centre)
 
     def view(self, X_WB: RigidTransform, cloud: PointCloud, depth) -> View:
         """The frame of this camera's `cloud` (camera frame) and `depth`
@@ -151,7 +146,8 @@ class DepthCameraSensor(LeafSystem):
     and the vehicle in the memory. "obstacle": OBSTACLE_COUNT readings
     [r_o, seen], nearest first (`maths.layout`); "frames_rendered": images
     rendered so far. Abstract state: the `Percept`, updated every 1/rate_hz
-    s from t = 0 (`perceive`); discrete state: the image count.
+    s from t = 0 (`perceive`), all cameras at once; discrete state: the image
+    count. `cameras` holds a `CameraModel` (a copy) per camera.
     """
 
     def __init__(self, cameras: list[MountedCamera], rate_hz: float, memory_s: float):
