@@ -4,6 +4,7 @@
                                 [--share 0.3] [--speeds 0.5 1.0]
                                 [--ablation-speed 1.0] [--ablation-methods mfi]
                                 [--workers 1] [--out docs/results/moving]
+                                [--page docs/dynamic.md]
 
 The fields of `mfi-drake sweep --seed S` with a share of their obstacles
 circling at each speed (`mfi-drake sweep --moving SHARE --obstacle-speed
@@ -17,7 +18,9 @@ interrupted run resumes.
 
 Writes DIR/moving.md (success, collision and timeout rates with 95 % Wilson
 intervals, the median path ratio and the median final error of the
-timeouts, per speed, way and method) and DIR/moving.json, after each run.
+timeouts, per speed, way and method) and DIR/moving.json, after each run,
+and the summary (success and collisions per speed and method) into the
+section "moving" of --page.
 """
 
 import argparse
@@ -26,7 +29,7 @@ from functools import partial
 
 import numpy as np
 
-from mfi_drake.files import write_json, write_text
+from mfi_drake.files import write_json, write_section, write_text
 from mfi_drake.flight.methods import METHODS
 from mfi_drake.studies.sweep import (
     SweepConfig,
@@ -68,6 +71,7 @@ def main() -> None:
     parser.add_argument("--ablation-methods", default="mfi")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", default="docs/results/moving")
+    parser.add_argument("--page", default="docs/dynamic.md")
     args = parser.parse_args()
     rows = []
     with dask_client(args.workers, None) as client:
@@ -97,6 +101,7 @@ def main() -> None:
                 rows.append((speed, way, method, stats, _timeout_error(mine)))
             write_json(os.path.join(args.out, "moving.json"), rows)
             write_text(os.path.join(args.out, "moving.md"), table(args, rows))
+            write_section(args.page, "moving", summary(args, rows))
     print(table(args, rows))
 
 
@@ -130,6 +135,30 @@ def table(args, rows) -> str:
             f"| {rate_cell(s, 'collision')} | {rate_cell(s, 'timeout')} | {ratio} "
             f"| {'–' if error is None else f'{error:.2f}'} |"
         )
+    return "\n".join(lines) + "\n"
+
+
+def summary(args, rows) -> str:
+    """Success and collisions per speed and way (rows) and method (columns)."""
+    methods = list(dict.fromkeys(method for _, _, method, _, _ in rows))
+    cells: dict[tuple, dict[str, str]] = {}
+    for speed, way, method, s, _ in rows:
+        n = s["n"]
+        hits = round(s["collision_rate"] * n)
+        cells.setdefault((speed, way), {})[method] = (
+            f"{s['success_rate']:.2f} ({hits} of {n} collided)"
+        )
+    lines = [
+        f"Seed {args.seed}, {args.n} fields at density {args.density:g}, "
+        f"{args.share:g} of the obstacles circling; success (collisions):",
+        "",
+        "| speed [m/s] | how the navigator sees motion | " + " | ".join(methods) + " |",
+        "|---|---|" + "---|" * len(methods),
+    ]
+    for (speed, way), by_method in cells.items():
+        row = [by_method.get(m, "–") for m in methods]
+        way = way if speed else "(nothing moves)"
+        lines.append(f"| {speed:g} | {way} | " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
 
 

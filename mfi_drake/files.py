@@ -33,3 +33,17 @@ def write_text(path: str, text: str) -> None:
 
 def write_json(path: str, obj) -> None:
     write_text(path, json.dumps(obj, indent=2) + "\n")
+
+
+def write_section(path: str, name: str, text: str) -> None:
+    """Replaces what lies between the lines `<!-- BEGIN name -->` and
+    `<!-- END name -->` of the document at `path` with `text`, so a command
+    writes its own table into a hand-written page."""
+    begin, end = f"<!-- BEGIN {name} -->\n", f"<!-- END {name} -->"
+    with open(path) as f:
+        page = f.read()
+    head, found, rest = page.partition(begin)
+    _, found_end, tail = rest.partition(end)
+    if not found or not found_end:
+        raise ValueError(f"{path}: no section {name!r} ({begin.strip()} … {end})")
+    write_text(path, head + begin + text.rstrip("\n") + "\n" + end + tail)
