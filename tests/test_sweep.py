@@ -41,6 +41,29 @@ def test_start_and_goal_are_free_with_clearance(tmp_path, index):
     validate_scenario(field, field.name)
 
 
+def test_wall_fields_block_the_line_far_from_the_ends_and_are_reproducible():
+    for index in range(50):
+        field = generator.wall_field(5, index)
+        assert field.obstacles == generator.wall_field(5, index).obstacles
+        (wall,) = field.obstacles
+        d_start, d_goal = obstacle_distances(field, [field.start, field.goal])
+        assert min(d_start, d_goal) >= 3.0  # the docstring's bound, ≈ 3.4 m
+        clearance = Clearance(field, R)
+        # The line is blocked, and it still is WALL_OVERLAP less a little in
+        # from each side of the crossing: the wall reaches past it each way.
+        ends = np.array(field.start), np.array(field.goal)
+        assert clearance.blocked_fraction(*ends, 0.01) > 0
+        yaw = np.radians(wall.rpy_deg[2])
+        along = np.array([-np.sin(yaw), np.cos(yaw), 0.0])  # the wall's length
+        # Where the line meets the wall's mid-plane, and points 0.4 m from it
+        # along the wall and up and down: all inside the wall.
+        hit = np.array([wall.position[0] + wall.position[1] * np.tan(yaw), 0, W.height])
+        for step in [0.4 * along, -0.4 * along, [0, 0, 0.4], [0, 0, -0.4], 0 * along]:
+            assert min(obstacle_distances(field, [hit + step])) < 0
+        validate_scenario(field, field.name)
+    assert generator.wall_field(5, 0).obstacles != generator.wall_field(6, 0).obstacles
+
+
 def test_same_seed_same_field_other_index_other_field(tmp_path):
     a = generator.random_field(7, 2, 0.1, str(tmp_path / "a"))
     b = generator.random_field(7, 2, 0.1, str(tmp_path / "b"))

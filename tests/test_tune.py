@@ -20,6 +20,7 @@ from mfi_drake.studies.tune import (
     gain_values,
     latin_hypercube,
     override_text,
+    training_fields,
     tune,
     unit_point,
 )
@@ -129,6 +130,20 @@ def test_overlapping_held_out_seed_is_refused(tmp_path, capsys):
     assert not any(tmp_path.iterdir())
     with pytest.raises(TuneError):
         TuneConfig(methods=["mfi"], seed=3, held_out_seed=3).check()
+
+
+def test_wall_fields_join_the_training_fields_and_a_negative_count_is_refused(
+    tmp_path, capsys
+):
+    config = TuneConfig(
+        methods=["gf"], n=1, densities=[0.1], walls=2, out=str(tmp_path)
+    )
+    names = [s.name for s in training_fields(config)]
+    assert names == ["field_d0.1_s100_i0", "wall_s100_i0", "wall_s100_i1"]
+    assert main(["tune", "--walls", "-1", "--out", str(tmp_path / "t")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--walls = -1" in err
+    assert not (tmp_path / "t").exists()
 
 
 def test_a_method_without_gains_is_refused(toy_dir, threads_client):

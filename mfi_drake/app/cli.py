@@ -299,6 +299,7 @@ def cmd_tune(args) -> int:
         n=args.n,
         densities=list(dict.fromkeys(args.density)),
         paper_scenarios=args.paper_scenarios,
+        walls=args.walls,
         held_out_seed=args.held_out_seed,
         out=args.out,
     )
@@ -495,6 +496,9 @@ def make_parser() -> argparse.ArgumentParser:
     tune.add_argument("--density", type=float, nargs="+", default=[0.1, 0.2])
     tune.add_argument(
         "--paper-scenarios", help="a directory whose paper scenarios join training"
+    )
+    tune.add_argument(
+        "--walls", type=int, default=0, help="wall fields that join training"
     )
     tune.add_argument(
         "--held-out-seed", type=int, help="seed of the held-out fields (≠ --seed)"

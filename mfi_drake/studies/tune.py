@@ -3,8 +3,9 @@
 The protocol, the same for every method and fixed before any result is seen:
 
 1. Training fields: `n` random fields per density at the training seed
-   (`world.generator`), optionally with the paper's scenarios added. Every
-   method flies exactly these fields.
+   (`world.generator`), optionally with `walls` wall fields of that seed
+   (one long wall across the line: structure the random fields lack) and
+   the paper's scenarios added. Every method flies exactly these fields.
 2. Search over the method's documented free gains (`methods.Gain`), in the
    unit cube of their ranges (log-uniform where a gain is a scale):
    candidate 0 is the method's current defaults; then a Latin hypercube of
@@ -50,6 +51,7 @@ from mfi_drake.studies.sweep import (
     read_results,
     with_overrides,
 )
+from mfi_drake.world.generator import wall_field
 from mfi_drake.world.validation import load_scenario
 
 REFINE_SIGMAS = (0.15, 0.07)  # of the unit range, one per refinement round
@@ -67,6 +69,7 @@ class TuneConfig:
     n: int = 10  # training fields per density
     densities: list[float] = field(default_factory=lambda: [0.1, 0.2])
     paper_scenarios: str | None = None  # a directory: its paper scenarios join
+    walls: int = 0  # wall fields (`generator.wall_field`) that join training
     held_out_seed: int | None = None  # fields never used for training
     out: str = "out/tune"
 
@@ -76,6 +79,8 @@ class TuneConfig:
                 f"--held-out-seed = {self.held_out_seed}: the held-out fields must "
                 f"not overlap the training fields (--seed = {self.seed})"
             )
+        if self.walls < 0:
+            raise TuneError(f"--walls = {self.walls}: must be ≥ 0")
         if self.candidates < 3:
             raise TuneError(f"--candidates = {self.candidates}: must be ≥ 3")
 
@@ -181,14 +186,15 @@ class Candidate:
 
 # --- the run ------------------------------------------------------------------------
 def training_fields(config: TuneConfig) -> list[Scenario]:
-    """The sweep's fields of the training seed (meshes under DIR/fields), and
-    the paper's scenarios if asked for."""
+    """The sweep's fields of the training seed (meshes under DIR/fields), its
+    wall fields and the paper's scenarios if asked for."""
     like = SweepConfig(n=config.n, seed=config.seed, out=config.out)
     fields = [
         make_field(like, density, index)
         for density in config.densities
         for index in range(config.n)
     ]
+    fields += [wall_field(config.seed, index) for index in range(config.walls)]
     if config.paper_scenarios:
         fields += [
             load_scenario(os.path.join(config.paper_scenarios, f"{name}.yaml"))
@@ -342,6 +348,7 @@ def tuning_table(config: TuneConfig, best: dict[str, Candidate]) -> str:
         f"Written by `mfi-drake tune`: {config.candidates} candidates per method, "
         f"each flown on the same {len(next(iter(best.values())).records)} training "
         f"fields (seed {config.seed}, densities {config.densities}"
+        + (f", plus {config.walls} wall fields" if config.walls else "")
         + (", plus the paper's scenarios" if config.paper_scenarios else "")
         + ").",
         "",

@@ -168,6 +168,69 @@ def random_field(
     return scenario
 
 
+# A wall field's ranges (`wall_field`): m, m, m, deg.
+WALL_LENGTHS = (6.0, 14.0)
+WALL_THICKNESSES = (0.1, 0.4)
+WALL_HEIGHTS = (2.0, 5.0)
+WALL_YAW_DEG = 25.0
+WALL_OVERLAP = 0.5  # m, the least the wall reaches past the line, each way
+WALL_STREAM = 2  # the random stream of wall_field
+
+
+def wall_name(seed: int, index: int) -> str:
+    return f"wall_s{seed}_i{index}"
+
+
+def wall_field(
+    seed: int,
+    index: int,
+    workspace: Workspace = DEFAULT_WORKSPACE,
+    vehicle: str = "drake_default",
+    sensor: sc.Sensor | None = None,
+    duration: float = DEFAULT_DURATION,
+) -> sc.Scenario:
+    """One long wall across the start–goal line: the structure random fields
+    of small obstacles lack (a navigator must follow it for metres to get
+    round or over it). A box of length, thickness and height uniform in
+    `WALL_*`, yawed up to ±WALL_YAW_DEG from square to the line, which meets
+    it in the middle fifth of the line's length and at least WALL_OVERLAP
+    from every edge of the wall; stream default_rng([seed, index,
+    WALL_STREAM]). The ends are clear of it by construction: each is at least
+    0.4·length·cos(WALL_YAW_DEG) − thickness/2 ≈ 3.4 m from the wall's plane
+    (the line meets the wall in the middle fifth)."""
+    rng = np.random.default_rng([seed, index, WALL_STREAM])
+    length, thickness, height = (
+        rng.uniform(*r) for r in (WALL_LENGTHS, WALL_THICKNESSES, WALL_HEIGHTS)
+    )
+    yaw = rng.uniform(-WALL_YAW_DEG, WALL_YAW_DEG)
+    reach = length / 2 - WALL_OVERLAP  # along the wall, from its centre
+    lift = height / 2 - WALL_OVERLAP
+    x = workspace.length * rng.uniform(0.4, 0.6)
+    along = rng.uniform(-reach, reach)  # the line's crossing, from the centre
+    # Shift the centre along the wall so the line crosses it at `along`.
+    centre = [
+        x + along * math.sin(math.radians(yaw)),
+        -along * math.cos(math.radians(yaw)),
+        workspace.height + rng.uniform(-lift, lift),
+    ]
+    scenario = sc.Scenario(
+        name=wall_name(seed, index),
+        start=workspace.start,
+        goal=workspace.goal,
+        duration=duration,
+        vehicle=vehicle,
+        sensor=sensor if sensor is not None else sc.SphereSensor(),
+        obstacles=[
+            sc.Obstacle(
+                shape=sc.Box(size=[thickness, length, height]),
+                position=[float(c) for c in centre],
+                rpy_deg=[0.0, 0.0, float(yaw)],
+            )
+        ],
+    )
+    return scenario
+
+
 def circle_motion(rng: np.random.Generator, radius: float, speed: float) -> Motion:
     """A circle of `radius` about the drawn position in a uniformly random
     plane, at `speed` m/s from a random point: A (a sin(ωt + ψ) + b cos(ωt +
