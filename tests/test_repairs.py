@@ -1,4 +1,4 @@
-"""The repairs of MFI's field (NavigatorParams (a)–(e)), each against the
+"""The repairs of MFI's field (NavigatorParams (a)–(f)), each against the
 paper's literal form on a hand-built configuration, and the symmetric
 two-sphere layout that made the paper's form chatter."""
 
@@ -125,6 +125,26 @@ def test_e_goal_attraction_has_no_jump_near_opposite_headings():
     assert jumps[True] < 1e-2  # the repair: steps of the order of the sweep's
     F = fields.goal_attraction_field(-EX, r_g, 1.5, True)  # exactly opposite
     assert np.linalg.norm(F) > 1.0 and abs(F @ EX) < 1e-12
+
+
+def test_f_boundary_following_vanishes_continuously_at_its_range():
+    v = np.array([1.2, 0.0, 0.3])  # approaching an obstacle ahead-left
+    n = np.array([0.8, 0.6, 0.0])
+    params = only(tapered_range=True)
+    r_l = params.r_l
+    for r in [0.2, 0.7, 1.2]:  # f = v (1/r − 1/r_l) against eq 13's v / r
+        r_o = (r + R) * n
+        F_paper, _ = fields.obstacle_field(v, r_o, 1.0, 10.0 * EX, R, PAPER)
+        F, _ = fields.obstacle_field(v, r_o, 1.0, 10.0 * EX, R, params)
+        np.testing.assert_allclose(F, F_paper * (1.0 - r / r_l), atol=1e-12)
+        assert abs(F @ v) < 1e-12  # still no work
+    # Across r_l: the paper's F jumps by c·v/r_l·sin, the tapered one by ~0.
+    inside, outside = (r_l - 1e-9 + R) * n, (r_l + 1e-9 + R) * n
+    for p, jump in [(PAPER, 1.0), (params, 1e-8)]:
+        F_in, _ = fields.obstacle_field(v, inside, 1.0, 10.0 * EX, R, p)
+        F_out, _ = fields.obstacle_field(v, outside, 1.0, 10.0 * EX, R, p)
+        assert np.allclose(F_out, 0.0)
+        assert (np.linalg.norm(F_in) > jump) == (p is PAPER)
 
 
 @pytest.mark.parametrize("offset", [1e-9, -1e-9, 0.0])

@@ -19,8 +19,8 @@ from mfi_drake.maths.layout import readings
 from mfi_drake.maths.so3 import (
     TINY,
     bisector_turn,
-    cross,
     dot,
+    entries,
     norm,
     reference_axis,
     rotation_from_reference,
@@ -31,8 +31,19 @@ from mfi_drake.maths.so3 import (
 if TYPE_CHECKING:  # annotations only: the maths layer needs no configuration
     from mfi_drake.config.parameters import NavigatorParams
 
-E_X = np.array([1.0, 0.0, 0.0])
-E_Z = np.array([0.0, 0.0, 1.0])
+E_X = (1.0, 0.0, 0.0)
+E_Z = (0.0, 0.0, 1.0)
+
+# The fields below are evaluated on triples of Python scalars (float or
+# AutoDiffXd; see `so3.entries`): a numpy operation on a 3-vector costs more
+# than the arithmetic it does, and the simulation evaluates these thousands
+# of times a flight. Each public function converts at its boundary only; the
+# arithmetic, and its order, is that of the vector form in its docstring.
+
+
+def _zeros(like) -> tuple:
+    """A zero triple of like's scalar type (AutoDiffXd zeros for AutoDiffXd)."""
+    return (0.0, 0.0, 0.0) if isinstance(like, float) else (0.0 * like,) * 3
 
 
 def _zero3(like) -> np.ndarray:
@@ -42,12 +53,47 @@ def _zero3(like) -> np.ndarray:
     return np.array([0.0 * like[0]] * 3)
 
 
-def heading(v: np.ndarray):
-    """(speed, l_a); l_a = 0 when the speed is below TINY (eq 12's l_a)."""
+def _cross(a, b) -> tuple:
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    return (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
+
+
+def _scaled(a, k) -> tuple:
+    """a · k (k a scalar)."""
+    return (a[0] * k, a[1] * k, a[2] * k)
+
+
+def _divided(a, k) -> tuple:
+    """a / k (k a scalar)."""
+    return (a[0] / k, a[1] / k, a[2] / k)
+
+
+def _heading(v) -> tuple:
     speed = norm(v)
     if speed < TINY:
-        return speed, _zero3(v)
-    return speed, v / speed
+        return speed, _zeros(v[0])
+    return speed, _divided(v, speed)
+
+
+def heading(v: np.ndarray):
+    """(speed, l_a); l_a = 0 when the speed is below TINY (eq 12's l_a)."""
+    speed, l_a = _heading(entries(v))
+    return speed, np.array(l_a)
+
+
+def _fallback_tangent(n, r_g) -> tuple:
+    along = dot(r_g, n)
+    t = (r_g[0] - along * n[0], r_g[1] - along * n[1], r_g[2] - along * n[2])
+    t_norm = norm(t)
+    if t_norm > 0.1 * norm(r_g) and t_norm > TINY:
+        return _divided(t, t_norm)
+    t = _cross(E_Z, n)
+    t_norm = norm(t)
+    if t_norm > 0.1:
+        return _divided(t, t_norm)
+    t = _cross(E_X, n)
+    return _divided(t, norm(t))
 
 
 def fallback_tangent(n: np.ndarray, r_g: np.ndarray) -> np.ndarray:
@@ -58,16 +104,17 @@ def fallback_tangent(n: np.ndarray, r_g: np.ndarray) -> np.ndarray:
     (go round on the goal's side); else horizontal, e_z × n (go round, not
     over); else e_x × n (n vertical).
     """
-    t = r_g - dot(r_g, n) * n
-    t_norm = norm(t)
-    if t_norm > 0.1 * norm(r_g) and t_norm > TINY:
-        return t / t_norm
-    t = cross(E_Z, n)
-    t_norm = norm(t)
-    if t_norm > 0.1:
-        return t / t_norm
-    t = cross(E_X, n)
-    return t / norm(t)
+    return np.array(_fallback_tangent(entries(n), entries(r_g)))
+
+
+def _continuous_tangent(n, r_g) -> tuple:
+    distance = norm(r_g)
+    l_g = _divided(r_g, distance) if distance > TINY else _zeros(n[0])
+    along = dot(l_g, n)
+    z, x = _cross(E_Z, n), _cross(E_X, n)
+    t = tuple(((l_g[i] - along * n[i]) + 0.1 * z[i]) + 0.01 * x[i] for i in range(3))
+    size = norm(t)
+    return _divided(t, size) if size > TINY else _fallback_tangent(n, r_g)
 
 
 def continuous_tangent(n: np.ndarray, r_g: np.ndarray) -> np.ndarray:
@@ -77,11 +124,25 @@ def continuous_tangent(n: np.ndarray, r_g: np.ndarray) -> np.ndarray:
     fixed horizontal bias e_z × n (go round to the left when the goal is
     straight behind) and a smaller e_x × n (for a vertical n). The sum is
     zero only on a set of measure zero, where `fallback_tangent` is used."""
-    distance = norm(r_g)
-    l_g = r_g / distance if distance > TINY else _zero3(n)
-    t = (l_g - dot(l_g, n) * n) + 0.1 * cross(E_Z, n) + 0.01 * cross(E_X, n)
-    size = norm(t)
-    return t / size if size > TINY else fallback_tangent(n, r_g)
+    return np.array(_continuous_tangent(entries(n), entries(r_g)))
+
+
+def _artificial_current(l_a, n, r_g, blend: float, continuous: bool) -> tuple:
+    along = dot(l_a, n)
+    l_o = (l_a[0] - along * n[0], l_a[1] - along * n[1], l_a[2] - along * n[2])
+    size = norm(l_o)
+    if along > 0.0 and size < blend:
+        if continuous:
+            t = _continuous_tangent(n, r_g)
+            side = (dot(l_o, t) + 0.05 * blend) / (0.1 * blend)
+            d = _scaled(t, min(1.0, max(-1.0, side)))
+        else:
+            d = _fallback_tangent(n, r_g)
+            if dot(l_o, d) < 0.0:
+                d = (-d[0], -d[1], -d[2])
+        k = blend - size
+        l_o = (l_o[0] + k * d[0], l_o[1] + k * d[1], l_o[2] + k * d[2])
+    return l_o
 
 
 def artificial_current(
@@ -104,27 +165,12 @@ def artificial_current(
     The current is never zero: where σ = 0, |l_o| ≥ blend/20.
     Receding from the obstacle, eq 11 is used as it is.
     """
-    along = dot(l_a, n)
-    l_o = l_a - along * n
-    size = norm(l_o)
-    if along > 0.0 and size < blend:
-        if continuous:
-            t = continuous_tangent(n, r_g)
-            side = (dot(l_o, t) + 0.05 * blend) / (0.1 * blend)
-            d = t * min(1.0, max(-1.0, side))
-        else:
-            d = fallback_tangent(n, r_g)
-            if dot(l_o, d) < 0.0:
-                d = -d
-        l_o = l_o + (blend - size) * d
-    return l_o
+    return np.array(
+        _artificial_current(entries(l_a), entries(n), entries(r_g), blend, continuous)
+    )
 
 
-def blocking_weight(l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray):
-    """Repair (a): the weight of eq 12 for an obstacle. 1 while the vehicle
-    approaches it (l_a·n ≥ 0); receding, 1 only if it lies toward the goal,
-    n·l_g ≥ 0.1, fading to 0 at n·l_g = 0. Continuous: eq 12 vanishes at
-    l_a·n = 0 whatever the weight."""
+def _blocking_weight(l_a, n, r_g):
     if dot(l_a, n) >= 0.0:
         return 1.0
     distance = norm(r_g)
@@ -133,16 +179,47 @@ def blocking_weight(l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray):
     return min(1.0, max(0.0, 10.0 * dot(r_g, n) / distance))
 
 
+def blocking_weight(l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray):
+    """Repair (a): the weight of eq 12 for an obstacle. 1 while the vehicle
+    approaches it (l_a·n ≥ 0); receding, 1 only if it lies toward the goal,
+    n·l_g ≥ 0.1, fading to 0 at n·l_g = 0. Continuous: eq 12 vanishes at
+    l_a·n = 0 whatever the weight."""
+    return _blocking_weight(entries(l_a), entries(n), entries(r_g))
+
+
+def _boundary_following(
+    l_a, l_o, speed, r, c: float, r_l: float, tapered: bool = False
+) -> tuple:
+    if r >= r_l:
+        return _zeros(l_a[0])
+    f = speed * (1.0 / r - 1.0 / r_l) if tapered else speed / r
+    return _scaled(_cross(l_a, _cross(l_o, l_a)), c * f)
+
+
 def boundary_following_field(
-    l_a: np.ndarray, l_o: np.ndarray, speed, r, c: float, r_l: float
+    l_a: np.ndarray,
+    l_o: np.ndarray,
+    speed,
+    r,
+    c: float,
+    r_l: float,
+    tapered: bool = False,
 ) -> np.ndarray:
-    """Eq 12–13: F = c · l_a × (l_o × l_a) · f, f = v/r if r < r_l else 0.
+    """Eq 12–13: F = c · l_a × (l_o × l_a) · f, f = v/r if r < r_l else 0;
+    `tapered` (repair (f)): f = v (1/r − 1/r_l), continuous at r_l.
 
     Perpendicular to l_a, so it does no work.
     """
-    if r >= r_l:
-        return _zero3(l_a)
-    return cross(l_a, cross(l_o, l_a)) * (c * speed / r)
+    return np.array(
+        _boundary_following(entries(l_a), entries(l_o), speed, r, c, r_l, tapered)
+    )
+
+
+def _collision_avoidance(l_a, n, l_o, r, c_perp: float, r_b: float) -> tuple:
+    if r >= r_b:
+        return _zeros(l_a[0])
+    f_a = c_perp * (1.0 / r - 1.0 / r_b) / (r * r)
+    return _scaled(_cross(l_a, _cross(l_o, n)), f_a)  # n × l_o⊥ = l_o × n
 
 
 def collision_avoidance_field(
@@ -153,10 +230,9 @@ def collision_avoidance_field(
 
     Perpendicular to l_a (no work); turns the heading away from the surface.
     """
-    if r >= r_b:
-        return _zero3(l_a)
-    f_a = c_perp * (1.0 / r - 1.0 / r_b) / (r * r)
-    return cross(l_a, cross(l_o, n)) * f_a  # n × l_o⊥ = n × (−l_o) = l_o × n
+    return np.array(
+        _collision_avoidance(entries(l_a), entries(n), entries(l_o), r, c_perp, r_b)
+    )
 
 
 def obstacle_field(
@@ -173,28 +249,34 @@ def obstacle_field(
     when the obstacle point coincides with the robot centre (n undefined).
     r = |r_o| − collision_radius is floored at params.min_distance.
     """
-    zero = _zero3(v)
     if seen <= 0.5:
+        zero = _zero3(v)
         return zero, zero
+    r_o = entries(r_o)
     distance = norm(r_o)
     r = distance - collision_radius
     # Beyond r_l the obstacle is beyond both ranges (r_b < r_l).
     if distance < TINY or r >= params.r_l:
+        zero = _zero3(v)
         return zero, zero
-    speed, l_a = heading(v)
+    speed, l_a = _heading(entries(v))
     if speed < TINY:
+        zero = _zero3(v)
         return zero, zero
     if r < params.min_distance:
         r = params.min_distance + 0.0 * r
-    n = r_o / distance
-    l_o = artificial_current(l_a, n, r_g, params.tangent_blend, params.continuous_side)
-    F = boundary_following_field(l_a, l_o, speed, r, params.c, params.r_l)
+    n = _divided(r_o, distance)
+    r_g = entries(r_g)
+    l_o = _artificial_current(l_a, n, r_g, params.tangent_blend, params.continuous_side)
+    F = _boundary_following(
+        l_a, l_o, speed, r, params.c, params.r_l, params.tapered_range
+    )
     if params.follow_blocking_only:
-        F = F * blocking_weight(l_a, n, r_g)
-    F_a = collision_avoidance_field(l_a, n, l_o, r, params.c_perp, params.r_b)
+        F = _scaled(F, _blocking_weight(l_a, n, r_g))
+    F_a = _collision_avoidance(l_a, n, l_o, r, params.c_perp, params.r_b)
     if params.hover_fade and speed < params.fade_speed:
-        F_a = F_a * (speed / params.fade_speed)
-    return F, F_a
+        F_a = _scaled(F_a, speed / params.fade_speed)
+    return np.array(F), np.array(F_a)
 
 
 def without_push_toward(F: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -243,6 +325,23 @@ def _toward_across(r_o: np.ndarray, v: np.ndarray) -> np.ndarray | None:
     return m / size if speed > TINY and size > TINY else None
 
 
+def _goal_attraction(v, speed, l_a, r_g, K_omega: float, smooth: bool) -> tuple:
+    distance = norm(r_g)
+    if speed < TINY or distance < TINY:
+        return _zeros(v[0])
+    l_g = _divided(r_g, distance)
+    if smooth:
+        return _scaled(_cross(entries(smooth_turn(l_a, l_g)), v), K_omega)
+    turn = bisector_turn(l_a, l_g)
+    if turn is not None:
+        return _scaled(_cross(entries(turn), v), K_omega)
+    r_ref = reference_axis(l_a, l_g)
+    R_v = rotation_from_reference(r_ref, l_a)
+    R_g = rotation_from_reference(r_ref, l_g)
+    omega_g = -K_omega * rotation_vector(R_g.T @ R_v)  # ω̂_g = −K_ω log(R_gᵀ R_v)
+    return _cross(entries(R_g @ omega_g), v)
+
+
 def goal_attraction_field(
     v: np.ndarray, r_g: np.ndarray, K_omega: float, smooth: bool = False
 ):
@@ -255,38 +354,37 @@ def goal_attraction_field(
     continuous up to l_a = −l_g. Zero when v = 0 or r_g = 0. Perpendicular
     to v (no work).
     """
-    speed, l_a = heading(v)
-    distance = norm(r_g)
-    if speed < TINY or distance < TINY:
-        return _zero3(v)
-    l_g = r_g / distance
-    if smooth:
-        return cross(smooth_turn(l_a, l_g), v) * K_omega
-    turn = bisector_turn(l_a, l_g)
-    if turn is not None:
-        return cross(turn, v) * K_omega
-    r_ref = reference_axis(l_a, l_g)
-    R_v = rotation_from_reference(r_ref, l_a)
-    R_g = rotation_from_reference(r_ref, l_g)
-    omega_g = -K_omega * rotation_vector(R_g.T @ R_v)  # ω̂_g = −K_ω log(R_gᵀ R_v)
-    return cross(R_g @ omega_g, v)
+    v = entries(v)
+    speed, l_a = _heading(v)
+    return np.array(_goal_attraction(v, speed, l_a, entries(r_g), K_omega, smooth))
+
+
+def _speed_control(speed, l_a, K_v: float, v_d: float) -> tuple:
+    return _scaled(l_a, -K_v * (speed - v_d))
 
 
 def speed_control_field(v: np.ndarray, K_v: float, v_d: float) -> np.ndarray:
     """Eq 19: F_v = −K_v (|v| − v_d) l_a (zero at rest, where l_a is undefined)."""
-    speed, l_a = heading(v)
-    return -K_v * (speed - v_d) * l_a
+    return np.array(_speed_control(*_heading(entries(v)), K_v, v_d))
 
 
 def terminal_pd_field(
     p: np.ndarray, v: np.ndarray, goal: np.ndarray, params: NavigatorParams
 ) -> np.ndarray:
     """Eq 20: F_pd = −K_P (p − p_g) − K_D ṗ, its norm saturated at max_pd_force."""
-    F = -params.K_P * (p - goal) - params.K_D * v
+    k_p, k_d = -params.K_P, params.K_D
+    p, v, goal = entries(p), entries(v), entries(goal)
+    F = tuple(k_p * (p[i] - goal[i]) - k_d * v[i] for i in range(3))
     size = norm(F)
     if size > params.max_pd_force:
-        F = F * (params.max_pd_force / size)
-    return F
+        F = _scaled(F, params.max_pd_force / size)
+    return np.array(F)
+
+
+def _distance_to_goal(p: np.ndarray, goal: np.ndarray):
+    """|r_g| = |p_g − p|."""
+    (p0, p1, p2), (g0, g1, g2) = entries(p), entries(goal)
+    return norm((g0 - p0, g1 - p1, g2 - p2))
 
 
 # Eq 21's two modes.
@@ -298,13 +396,13 @@ def cruise_guard(p: np.ndarray, v: np.ndarray, goal: np.ndarray, params):
     """≥ 0 where eq 21 may leave PD for cruise: v ≥ v_min and |r_g| ≥ r_gl + h."""
     return min(
         norm(v) - params.v_min,
-        norm(goal - p) - (params.r_gl + params.goal_hysteresis),
+        _distance_to_goal(p, goal) - (params.r_gl + params.goal_hysteresis),
     )
 
 
 def pd_guard(p: np.ndarray, v: np.ndarray, goal: np.ndarray, params):
     """< 0 where eq 21 must leave cruise for PD: |r_g| < r_gl or v < v_stop."""
-    return min(norm(v) - params.v_stop, norm(goal - p) - params.r_gl)
+    return min(norm(v) - params.v_stop, _distance_to_goal(p, goal) - params.r_gl)
 
 
 def goal_terms(
@@ -314,9 +412,13 @@ def goal_terms(
     terms are zero."""
     zero = _zero3(v)
     if mode == MODE_CRUISE:
-        return (
-            goal_attraction_field(v, goal - p, params.K_omega, params.smooth_goal_turn),
-            speed_control_field(v, params.K_v, params.v_d),
-            zero,
+        v = entries(v)
+        speed, l_a = _heading(v)
+        (p0, p1, p2), (g0, g1, g2) = entries(p), entries(goal)
+        r_g = (g0 - p0, g1 - p1, g2 - p2)
+        F_gc = _goal_attraction(
+            v, speed, l_a, r_g, params.K_omega, params.smooth_goal_turn
         )
+        F_v = _speed_control(speed, l_a, params.K_v, params.v_d)
+        return np.array(F_gc), np.array(F_v), zero
     return zero, zero, terminal_pd_field(p, v, goal, params)
