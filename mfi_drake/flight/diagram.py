@@ -5,6 +5,8 @@
         │ pose              │ state                │ state           ▼
     VehicleGeometry ◀── QuadrotorPlant ◀── RotorMixer ◀── AttitudePD ◀┘
 
+VehicleGeometry is there only where something reads the vehicle in
+SceneGraph: cameras, or other vehicles' sensors (`needs_geometry`).
 Every signal worth reading afterwards goes through one Multiplexer into a
 VectorLogSink that records at every integrator step. The scenario's faults
 (`faults`) are inserted only when turned on; the log keeps the true state.
@@ -104,13 +106,14 @@ def add_sensor(
     scenario: Scenario,
     scene_graph: SceneGraph,
     plant: QuadrotorPlant,
-    geometry: VehicleGeometry,
+    geometry: VehicleGeometry | None,
     suffix: str = "",
 ):
     """Adds the scenario's sensor, named "sensor" + suffix, whose output port
     "obstacle" carries readings [r_o, seen] (see `maths.layout`). A camera
     rig's "state" input is left for `build_diagram` to connect. A sphere
-    sensor does not see its own vehicle's collision sphere."""
+    sensor does not see its own vehicle's collision sphere. `geometry`: the
+    vehicle in SceneGraph (`needs_geometry`), else None."""
     if isinstance(scenario.sensor, Cameras):
         return add_depth_cameras(builder, scenario.sensor, scene_graph, geometry)
     if not isinstance(scenario.sensor, SphereSensor):
@@ -119,7 +122,7 @@ def add_sensor(
         f"sensor{suffix}",
         SphereSensorSystem(
             scenario.sensor.radius,
-            ignored={geometry.sphere_id} - {None},
+            ignored={geometry.sphere_id} - {None} if geometry else set(),
             moving=is_dynamic(scenario),
         ),
     )
@@ -238,6 +241,17 @@ def navigator_of(scenario: Scenario, method: Method, vehicle: Vehicle):
     return navigator
 
 
+def needs_geometry(scenario: Scenario) -> bool:
+    """Whether the flight needs its vehicles in SceneGraph: cameras ride on
+    the body frame, and among several vehicles each one's collision sphere
+    is seen by the others. A lone vehicle's sphere sensor reads its position
+    from the state and nothing in the flight draws it (animations replay
+    the log), so it flies without: a Python pose system less, evaluated at
+    every state. (Drake's C++ QuadrotorGeometry would download its mesh
+    package at build time.)"""
+    return isinstance(scenario.sensor, Cameras) or bool(scenario.other_vehicles)
+
+
 def add_vehicle(
     builder: DiagramBuilder,
     scene_graph: SceneGraph,
@@ -251,23 +265,25 @@ def add_vehicle(
     vehicle = VEHICLES[scenario.vehicle]
     params = scenario.navigator
     plant = builder.AddNamedSystem(f"quadrotor{suffix}", make_plant(vehicle))
-    geometry = builder.AddNamedSystem(
-        f"vehicle_geometry{suffix}",
-        VehicleGeometry(
-            scene_graph,
-            vehicle.arm_length,
-            vehicle.rotor_radius,
-            sphere_radius=(
-                vehicle.collision_radius if scenario.other_vehicles else None
+    geometry = None
+    if needs_geometry(scenario):
+        geometry = builder.AddNamedSystem(
+            f"vehicle_geometry{suffix}",
+            VehicleGeometry(
+                scene_graph,
+                vehicle.arm_length,
+                vehicle.rotor_radius,
+                sphere_radius=(
+                    vehicle.collision_radius if scenario.other_vehicles else None
+                ),
+                name=f"vehicle{suffix}",
             ),
-            name=f"vehicle{suffix}",
-        ),
-    )
-    builder.Connect(plant.get_output_port(0), geometry.get_input_port(0))
-    builder.Connect(
-        geometry.get_output_port(0),
-        scene_graph.get_source_pose_port(geometry.source_id),
-    )
+        )
+        builder.Connect(plant.get_output_port(0), geometry.get_input_port(0))
+        builder.Connect(
+            geometry.get_output_port(0),
+            scene_graph.get_source_pose_port(geometry.source_id),
+        )
 
     sensor = add_sensor(builder, scenario, scene_graph, plant, geometry, suffix)
 

@@ -54,8 +54,7 @@ class SphereSensor(LeafSystem):
         self._radius = float(radius)
         self._ignored = frozenset(ignored)
         self._moving = bool(moving)
-        self._last_key = None  # (position bytes, geometry version), see _calc
-        self._last_value = None
+        self._last = (None, None, None)  # (position bytes, version, reading)
         self._query = self.DeclareAbstractInputPort(
             "query", AbstractValue.Make(QueryObject())
         )
@@ -76,18 +75,19 @@ class SphereSensor(LeafSystem):
             )
             return
         # The obstacles are anchored, so the reading depends on p and on the
-        # proximity geometry, which only changes with its version. The query
-        # object itself is valid only during this evaluation: not kept.
-        version = query.inspector().geometry_version()
+        # proximity geometry, which only changes with its version; the
+        # version is read only when p repeats (the step's first evaluation
+        # repeats the logger's). The query object is valid only during this
+        # evaluation: not kept.
         key = p.tobytes()
-        if (
-            self._last_key is None
-            or key != self._last_key[0]
-            or not version.IsSameAs(self._last_key[1], Role.kProximity)
+        last_key, version, value = self._last
+        if key != last_key or not query.inspector().geometry_version().IsSameAs(
+            version, Role.kProximity
         ):
-            self._last_value = nearest_obstacles(query, p, self._radius)
-            self._last_key = (key, copy.copy(version))
-        output.SetFromVector(self._last_value)
+            value = nearest_obstacles(query, p, self._radius)
+            version = copy.copy(query.inspector().geometry_version())
+            self._last = (key, version, value)
+        output.SetFromVector(value)
 
 
 class VehicleGeometry(LeafSystem):
