@@ -16,8 +16,9 @@ For scenarios/pelican_cylinder.yaml and pelican_cube.yaml, flown as
    frame times through the diagram's own systems: render (the RgbdSensor's
    depth image, VTK), cloud (DepthImageToPointCloud), thin
    (`CameraModel.view`), memory (`perception.fuse`), segmentation
-   (`perception.read`: surface links, voxel graph, local minima); and the
-   reading between frames (`Groups.nearest`), per evaluation.
+   (`perception.read`: surface links, voxel graph, local minima), pose
+   (the mount's pose from the estimate and, on a gimbal, its next angles);
+   and the reading between frames (`Groups.nearest`), per evaluation.
 
 The machine's other load shows up in the wall time as noise, hence the best
 of several runs and the CPU time beside it.
@@ -29,7 +30,6 @@ import os
 import time
 
 import numpy as np
-from pydrake.math import RigidTransform, RollPitchYaw
 
 from mfi_drake.config.scenario import Scenario, SphereSensor
 from mfi_drake.flight.diagram import build_diagram
@@ -40,7 +40,7 @@ from mfi_drake.world.validation import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENARIOS = ["pelican_cylinder.yaml", "pelican_cube.yaml"]
-PIECES = ["render", "cloud", "thin", "memory", "segmentation"]
+PIECES = ["render", "cloud", "thin", "memory", "segmentation", "pose"]
 
 
 def best_of(scenario: Scenario, repeats: int) -> tuple[Flight, float]:
@@ -74,6 +74,7 @@ def frame_costs(flight: Flight) -> dict[str, float]:
     context = built.diagram.CreateDefaultContext()
     plant = built.plant.GetMyMutableContextFromRoot(context)
     sensor = built.sensor
+    sensor_context = sensor.GetMyMutableContextFromRoot(context)
     (camera,) = sensor.cameras
     rgbd = built.diagram.GetSubsystemByName("rgbd_sensor_0")
     cloud_system = built.diagram.GetSubsystemByName("point_cloud_0")
@@ -91,15 +92,20 @@ def frame_costs(flight: Flight) -> dict[str, float]:
         spent[piece] += time.process_time() - start
         return result
 
+    angles = np.zeros(2) if sensor.gimbal else None  # as the flight starts
     for t, k in zip(frames, samples, strict=True):
         x = flight.log["state"][k]
         plant.SetContinuousState(x)
+        if sensor.gimbal:
+            sensor.set_gimbal_angles(sensor_context, angles)
         depth = timed("render", rgbd.depth_image_32F_output_port().Eval, rgbd_context)
         cloud = timed(
             "cloud", cloud_system.point_cloud_output_port().Eval, cloud_context
         )
-        X_WB = RigidTransform(RollPitchYaw(x[3], x[4], x[5]), x[:3])
-        view = timed("thin", camera.view, X_WB, cloud, depth)
+        R_WM, p_WM = timed("pose", sensor.mount_pose, x, angles)
+        if sensor.gimbal:
+            angles = timed("pose", sensor.next_gimbal_angles, angles, x)
+        view = timed("thin", camera.view, R_WM, p_WM, cloud, depth)
         memory = timed(
             "memory",
             fuse,

@@ -21,6 +21,7 @@ from mfi_drake.config.scenario import (
     Cylinder,
     DepthCamera,
     DepthCameraRig,
+    Gimbal,
     Obstacle,
     RigCamera,
     Scenario,
@@ -29,7 +30,8 @@ from mfi_drake.config.scenario import (
 )
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import simulate
-from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, seen_points
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, VELOCITY, seen_points
+from mfi_drake.maths.perception import gimbal_rotation, point_gimbal
 from mfi_drake.maths.quadcopter import desired_yaw
 from mfi_drake.systems.camera import add_depth_cameras, mounted_cameras
 from mfi_drake.systems.sensors import VehicleGeometry
@@ -47,9 +49,11 @@ def pixel_angle(camera: DepthCamera) -> float:
     return math.radians(camera.fov_y_deg) / camera.height
 
 
-def state(position=(0.0, 0.0, HEIGHT), attitude=(0.0, 0.0, 0.0)) -> np.ndarray:
+def state(
+    position=(0.0, 0.0, HEIGHT), attitude=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0)
+) -> np.ndarray:
     x = np.zeros(12)
-    x[:3], x[3:6] = position, attitude
+    x[:3], x[3:6], x[VELOCITY] = position, attitude, velocity
     return x
 
 
@@ -313,7 +317,18 @@ def test_the_depth_camera_form_is_a_rig_of_one_camera(write_yaml):
     R_LC = RollPitchYaw(np.radians([-90.0, 0.0, -90.0]))
     X_BC = X_BL @ RigidTransform(R_LC, np.zeros(3))
     np.testing.assert_allclose(
-        mounted.X_BC.GetAsMatrix4(), X_BC.GetAsMatrix4(), atol=1e-12
+        mounted.X_MC.GetAsMatrix4(), X_BC.GetAsMatrix4(), atol=1e-12
+    )
+    # On a gimbal the same rpy poses it in the gimbal's frame, at the
+    # gimbal's centre (`position` is the gimbal's).
+    gimballed = DepthCamera(
+        position=[0.1, 0.0, -0.05], rpy_deg=[5.0, 10.0, 20.0], gimbal=Gimbal()
+    )
+    (mounted,) = mounted_cameras(gimballed)
+    np.testing.assert_allclose(
+        mounted.X_MC.GetAsMatrix4(),
+        RigidTransform(X_BC.rotation(), np.zeros(3)).GetAsMatrix4(),
+        atol=1e-12,
     )
     path = write_yaml(
         """\
@@ -330,10 +345,86 @@ def test_the_depth_camera_form_is_a_rig_of_one_camera(write_yaml):
     assert rig.rate_hz == 15.0 and rig.memory_s == DepthCamera().memory_s
     assert (rig.cameras[0].width, rig.cameras[1].max_range) == (80, 3.0)
     first, second = mounted_cameras(rig)
-    np.testing.assert_allclose(first.X_BC.translation(), [0.1, 0.0, -0.05])
+    np.testing.assert_allclose(first.X_MC.translation(), [0.1, 0.0, -0.05])
     np.testing.assert_allclose(
-        second.X_BC.rotation().matrix(), R_LC.ToRotationMatrix().matrix(), atol=1e-12
+        second.X_MC.rotation().matrix(), R_LC.ToRotationMatrix().matrix(), atol=1e-12
     )
+
+
+@pytest.mark.parametrize("pan,tilt", [(0.0, 0.0), (0.7, 0.3), (-2.5, -1.2)])
+def test_the_gimbal_frame_is_pan_about_z_then_tilt_up(pan, tilt):
+    # Drake's R = Rz(yaw) Ry(pitch) Rx(roll); raising the view is a negative pitch.
+    R = RollPitchYaw(0.0, -tilt, pan).ToRotationMatrix().matrix()
+    np.testing.assert_allclose(gimbal_rotation(pan, tilt), R, atol=1e-12)
+
+
+def test_the_gimbal_turns_toward_the_velocity_at_its_slew_rate():
+    degrees = np.radians
+    # Unlimited: straight to the velocity's azimuth and elevation.
+    np.testing.assert_allclose(
+        point_gimbal(np.zeros(2), np.array([1.0, 1.0, math.sqrt(2.0)]), 10.0, 0.2),
+        [math.pi / 4, math.pi / 4],
+    )
+    # Each axis moves at most max_step a call.
+    np.testing.assert_allclose(
+        point_gimbal(np.zeros(2), np.array([0.0, 1.0, -1.0]), 0.1, 0.2), [0.1, -0.1]
+    )
+    # The shorter way round: from 170° to −170° is +20°, through ±180°.
+    start = degrees([170.0, 0.0])
+    velocity = np.array([math.cos(degrees(-170.0)), math.sin(degrees(-170.0)), 0.0])
+    np.testing.assert_allclose(
+        point_gimbal(start, velocity, degrees(5.0), 0.2), degrees([175.0, 0.0])
+    )
+    np.testing.assert_allclose(
+        point_gimbal(start, velocity, degrees(30.0), 0.2), degrees([-170.0, 0.0])
+    )
+    # Slower than min_speed: held; climbing straight up: the pan is held.
+    held = np.array([0.4, 0.1])
+    np.testing.assert_array_equal(
+        point_gimbal(held, np.array([0.1, 0.1, 0.0]), 1.0, 0.2), held
+    )
+    np.testing.assert_allclose(
+        point_gimbal(held, np.array([0.0, 0.1, 1.0]), 10.0, 0.2),
+        [0.4, math.atan2(1.0, 0.1)],
+    )
+
+
+def test_a_gimballed_camera_sees_where_the_vehicle_climbs():
+    # A sphere straight above: out of a forward camera's view. The estimate
+    # says the vehicle climbs, so the gimbal tilts up at 180°/s: 90° in 15
+    # frames. Stabilised, it looks up whatever the body's attitude.
+    above = [(Sphere(radius=0.5), [0.3, 0.0, HEIGHT + 2.5])]
+    climbing = state(velocity=(0.0, 0.0, 1.0))
+    fixed = Rig(above)
+    assert len(fixed.at(20.5 * FRAME, climbing)) == 0
+    for attitude in [(0.0, 0.0, 0.0), (0.3, -0.2, 2.0)]:
+        rig = Rig(above, DepthCamera(gimbal=Gimbal()))
+        x = state(attitude=attitude, velocity=(0.0, 0.0, 1.0))
+        assert len(rig.at(5.5 * FRAME, x)) == 0  # tilted 30°: not yet in view
+        seen = rig.at(20.5 * FRAME, x)
+        angles = rig.sensor.GetOutputPort("gimbal_angles").Eval(
+            rig.sensor.GetMyContextFromRoot(rig.context)
+        )
+        np.testing.assert_allclose(angles, [0.0, math.pi / 2])
+        tolerance = 3.0 * pixel_angle(DepthCamera())  # a pixel footprint at ≤ 3 m
+        np.testing.assert_allclose(seen, rig.exact(x[:3]), atol=tolerance)
+
+
+def test_a_gimballed_camera_places_what_it_sees_with_the_estimate():
+    # The gimbal looking ahead (its start), the body tilted and yawed, and an
+    # estimate 0.3 m to the left of the truth: every remembered sample lies
+    # on the sphere moved 0.3 m to the left.
+    centre = np.array([2.5, 0.4, HEIGHT])
+    rig = Rig([(Sphere(radius=0.5), centre)], DepthCamera(gimbal=Gimbal()))
+    x = state(attitude=(0.0, 0.1, 0.5))
+    drifted = state(position=(0.0, 0.3, HEIGHT))
+    assert len(rig.at(0.5 * FRAME, x, drifted)) == 1
+    points = rig.sensor.percept(rig.sensor.GetMyContextFromRoot(rig.context))
+    radii = np.linalg.norm(points.memory.points - (centre + [0.0, 0.3, 0.0]), axis=1)
+    assert len(radii) > 10
+    # Within the renderer's error here (VTK's depth and tessellation: up to
+    # 1.5 cm at 2.5 m, as for a camera fixed to a level body).
+    np.testing.assert_allclose(radii, 0.5, atol=0.02)
 
 
 def test_renders_at_its_own_rate():
@@ -351,11 +442,15 @@ def test_renders_at_its_own_rate():
     assert np.all(obstacle[1:, 3] == 1.0)  # the cylinder is in view all along
 
 
+@pytest.mark.parametrize("mount", ["{}", "null"], ids=["gimbal", "fixed"])
 @pytest.mark.parametrize("name", ["pelican_cylinder", "pelican_cube"])
-def test_pelican_fig11_flight_succeeds_with_the_depth_camera(name, tmp_path, capsys):
+def test_pelican_fig11_flight_succeeds_with_the_depth_camera(
+    name, mount, tmp_path, capsys
+):
     path = os.path.join(SCENARIOS, f"{name}.yaml")
     assert isinstance(load_scenario(path).sensor, DepthCamera)
-    assert main(["run", path, "--json", "--out", str(tmp_path)]) == 0
+    mounted = ["--set", f"sensor: !DepthCamera {{gimbal: {mount}}}"]
+    assert main(["run", path, *mounted, "--json", "--out", str(tmp_path)]) == 0
     metrics = json.loads(capsys.readouterr().out)
     assert metrics["sensor"] == "depth" and metrics["vehicle"] == "pelican"
     assert metrics["success"] and metrics["min_clearance"] > 0.0
@@ -368,13 +463,22 @@ def test_yaw_following_motion_lets_the_camera_see_a_side_obstacle():
     following = simulate(scenario)
     scenario.navigator.yaw_follows_motion = False
     scenario.duration = 6.0  # it has hit the cylinder by then
-    fixed = simulate(scenario)
+    held = simulate(scenario)
     assert following.metrics["success"] and following.metrics["min_clearance"] > 0
-    assert fixed.metrics["collided"]  # looking along +x it never sees it in time
+    assert held.metrics["collided"]  # looking along +x it never sees it in time
     first_seen = [
-        f.times[np.argmax(f.log["obstacle"][:, 3] > 0.5)] for f in (following, fixed)
+        f.times[np.argmax(f.log["obstacle"][:, 3] > 0.5)] for f in (following, held)
     ]
     assert first_seen[0] < 1.0 < 3.0 < first_seen[1]
+
+
+def test_a_gimballed_camera_sees_a_side_obstacle_with_the_yaw_held():
+    scenario = load_scenario(os.path.join(SCENARIOS, "pelican_side_goal.yaml"))
+    scenario.navigator.yaw_follows_motion = False
+    scenario.sensor.gimbal = Gimbal()
+    flight = simulate(scenario)
+    assert flight.metrics["success"] and flight.metrics["min_clearance"] > 0
+    assert flight.times[np.argmax(flight.log["obstacle"][:, 3] > 0.5)] < 1.0
 
 
 def test_desired_yaw():
@@ -444,6 +548,10 @@ sensor: {SENSOR}
             "'world'",
         ),
         ("!DepthCameraRig {rate_hz: -1}", "sensor.rate_hz", "-1"),
+        ("!DepthCamera {gimbal: {rate_deg_s: 0}}", "sensor.gimbal.rate_deg_s", "0"),
+        ("!DepthCamera {gimbal: {min_speed: -1}}", "sensor.gimbal.min_speed", "-1"),
+        ("!DepthCamera {gimbal: {slew: 3}}", "sensor.gimbal.slew", "3"),
+        ("!DepthCamera {gimbal: [1, 2]}", "sensor.gimbal", "[1, 2]"),
     ],
 )
 def test_bad_camera_configurations_are_one_line_and_exit_status_2(

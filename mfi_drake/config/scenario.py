@@ -116,16 +116,29 @@ MEMORY_S = 6.0  # s, default T: max_range / v_d (docs/depth_camera.md, "Memory")
 
 
 @dataclass
+class Gimbal:
+    """A pan–tilt gimbal, stabilised in the world, that turns the camera
+    toward the estimated velocity (docs/depth_camera.md, "Gimbal")."""
+
+    rate_deg_s: float = 180.0  # largest slew rate of each axis
+    min_speed: float = 0.2  # m/s; slower, the gimbal holds its direction
+
+
+@dataclass
 class DepthCamera(CameraImage):
-    """An on-board depth camera (paper §VI-B), fixed to the body, looking +x:
-    a rig of one camera."""
+    """An on-board depth camera (paper §VI-B) looking +x: a rig of one
+    camera, fixed to the body or on a gimbal."""
 
     rate_hz: float = 30.0  # frames per second
-    # The camera's pose on the body: optical centre in the body frame [m] and
-    # orientation [deg] (zero: looking along body +x, image up = body +z).
+    # The camera's pose: optical centre in the body frame [m] and orientation
+    # [deg] in the body frame, or on a gimbal in the gimbal's frame (zero:
+    # looking along its +x, image up = its +z).
     position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     memory_s: float = MEMORY_S  # s, T: how long a seen point is remembered
+    # None: fixed to the body, as in the paper; a `Gimbal`: looking where the
+    # vehicle goes (docs/depth_camera.md, "Gimbal").
+    gimbal: Gimbal | None = None
 
 
 def looking_forward() -> Transform:
@@ -257,6 +270,9 @@ def _check_cameras(where: str, sensor: Cameras) -> None:
         _check_image(where, "sensor", sensor)
         _check_vector(where, "sensor.position", sensor.position)
         _check_vector(where, "sensor.rpy_deg", sensor.rpy_deg)
+        if sensor.gimbal is not None:
+            _check_positive(where, "sensor.gimbal.rate_deg_s", sensor.gimbal.rate_deg_s)
+            _check_positive(where, "sensor.gimbal.min_speed", sensor.gimbal.min_speed)
         return
     if not sensor.cameras:
         fail(where, "sensor.cameras", sensor.cameras, "must hold a camera")

@@ -38,15 +38,31 @@ from pydrake.perception import DepthImageToPointCloud, PointCloud
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.sensors import CameraInfo, ImageDepth32F, RgbdSensor
 
-from mfi_drake.config.scenario import MIN_DEPTH, CameraImage, Cameras, DepthCamera
+from mfi_drake.config.scenario import (
+    MIN_DEPTH,
+    CameraImage,
+    Cameras,
+    DepthCamera,
+    Gimbal,
+)
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,
     POSITION,
     STATE_SIZE,
+    VELOCITY,
     obstacle_signal,
 )
-from mfi_drake.maths.perception import Intrinsics, Percept, Thinning, View, perceive
+from mfi_drake.maths.perception import (
+    Intrinsics,
+    Percept,
+    Thinning,
+    View,
+    gimbal_rotation,
+    perceive,
+    point_gimbal,
+)
+from mfi_drake.systems.gimbal import GimbalPose
 from mfi_drake.systems.sensors import VehicleGeometry
 
 RENDERER = "vtk"
@@ -60,20 +76,28 @@ R_LC = RotationMatrix(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0
 
 @dataclass(frozen=True)
 class MountedCamera:
-    """A camera's image and its pose X_BC on the body."""
+    """A camera's image and its pose X_MC on its mount M: the body, or the
+    gimbal's frame."""
 
     image: CameraImage
-    X_BC: RigidTransform
+    X_MC: RigidTransform
 
 
 def mounted_cameras(sensor: Cameras) -> list[MountedCamera]:
     """The rig's cameras. A `DepthCamera` is one, posed by position and
-    rpy_deg (zero rpy: looking along the body's +x, image up = body +z)."""
+    rpy_deg (zero rpy: looking along the mount's +x, image up = its +z); on a
+    gimbal, `position` is the gimbal's on the body and the camera sits at
+    the gimbal's centre."""
     if isinstance(sensor, DepthCamera):
-        R_BL = RollPitchYaw(np.radians(sensor.rpy_deg)).ToRotationMatrix()
-        X_BC = RigidTransform(R_BL @ R_LC, np.asarray(sensor.position, float))
-        return [MountedCamera(sensor, X_BC)]
+        R_ML = RollPitchYaw(np.radians(sensor.rpy_deg)).ToRotationMatrix()
+        p_MC = np.zeros(3) if sensor.gimbal else np.asarray(sensor.position, float)
+        return [MountedCamera(sensor, RigidTransform(R_ML @ R_LC, p_MC))]
     return [MountedCamera(c, c.X_BC.GetDeterministicValue()) for c in sensor.cameras]
+
+
+def gimbal_of(sensor: Cameras) -> Gimbal | None:
+    """The gimbal carrying the sensor's camera (none: fixed to the body)."""
+    return sensor.gimbal if isinstance(sensor, DepthCamera) else None
 
 
 def camera_info(camera: CameraImage) -> CameraInfo:
@@ -105,20 +129,26 @@ class CameraModel:
             info.center_x(),
             info.center_y(),
         )
-        self.X_BC = RigidTransform(camera.X_BC)
+        self.X_MC = RigidTransform(camera.X_MC)
+        self._R_MC = self.X_MC.rotation().matrix()
+        self._p_MC = self.X_MC.translation()
         self.max_range = float(camera.image.max_range)
-        centre = self.X_BC.inverse().translation()  # the body origin in C
+        # Thinned toward the mount's origin: the vehicle centre, or the
+        # gimbal's centre (the same point unless the gimbal is set off it).
+        centre = self.X_MC.inverse().translation()
         self.thinning = Thinning(unit_rays(info), info.width(), info.height(), centre)
 
-    def view(self, X_WB: RigidTransform, cloud: PointCloud, depth) -> View:
+    def view(
+        self, R_WM: np.ndarray, p_WM: np.ndarray, cloud: PointCloud, depth
+    ) -> View:
         """The frame of this camera's `cloud` (camera frame) and `depth`
-        image (ImageDepth32F), thinned and placed with the body pose X_WB."""
-        X_WC = X_WB @ self.X_BC
+        image (ImageDepth32F), thinned and placed with the mount's pose
+        (R_WM, p_WM)."""
         z = depth.data[:, :, 0]
         return View(
             self.thinning(cloud.xyzs(), z),
-            X_WC.rotation().matrix(),
-            X_WC.translation(),
+            R_WM @ self._R_MC,
+            p_WM + R_WM @ self._p_MC,
             self.intrinsics,
             z,
             self.max_range,
@@ -139,6 +169,7 @@ class DepthCameraSensor(LeafSystem):
         output_ports:
         - obstacle
         - frames_rendered
+        - gimbal_angles (with a gimbal)
 
     Per camera i: "depth_image_i", an ImageDepth32F, and "point_cloud_i",
     its DepthImageToPointCloud cloud in the camera frame. "state": the
@@ -148,12 +179,32 @@ class DepthCameraSensor(LeafSystem):
     rendered so far. Abstract state: the `Percept`, updated every 1/rate_hz
     s from t = 0 (`perceive`), all cameras at once; discrete state: the image
     count. `cameras` holds a `CameraModel` (a copy) per camera.
+
+    With a `gimbal` (at p_BG on the body), the cameras' mount is the
+    gimbal's frame, and this system points it: "gimbal_angles" (pan, tilt)
+    [rad], from (0, 0), looking along world +x; each frame, after the images
+    are placed, it turns them toward the estimated velocity
+    (`perception.point_gimbal`), at most `gimbal.rate_deg_s` / rate_hz a
+    frame. Without one the mount is the body.
     """
 
-    def __init__(self, cameras: list[MountedCamera], rate_hz: float, memory_s: float):
+    def __init__(
+        self,
+        cameras: list[MountedCamera],
+        rate_hz: float,
+        memory_s: float,
+        gimbal: Gimbal | None = None,
+        p_BG=(0.0, 0.0, 0.0),
+    ):
         super().__init__()
         self.cameras = [CameraModel(camera) for camera in cameras]
         self._memory_s = float(memory_s)
+        self._gimbal = gimbal
+        self._p_BG = np.asarray(p_BG, dtype=float)
+        if gimbal is not None:
+            self._max_step = np.radians(gimbal.rate_deg_s) / rate_hz
+            self._angles = self.DeclareDiscreteState(2)
+            self.DeclareStateOutputPort("gimbal_angles", self._angles)
         # Remembered points farther than any camera sees are forgotten.
         self._reach = max(c.max_range for c in self.cameras)
         self._images = [
@@ -187,14 +238,42 @@ class DepthCameraSensor(LeafSystem):
         """The percept held in this system's `context`."""
         return context.get_abstract_state(self._percept).get_value()
 
+    @property
+    def gimbal(self) -> Gimbal | None:
+        return self._gimbal
+
+    def gimbal_angles(self, context) -> np.ndarray:
+        """The gimbal's (pan, tilt) [rad] in this system's `context`."""
+        return context.get_discrete_state(self._angles).get_value().copy()
+
+    def set_gimbal_angles(self, context, angles) -> None:
+        context.SetDiscreteState(self._angles, np.asarray(angles, dtype=float))
+
+    def next_gimbal_angles(self, angles: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Where the gimbal at `angles` points next, the estimate being x."""
+        return point_gimbal(angles, x[VELOCITY], self._max_step, self._gimbal.min_speed)
+
+    def mount_pose(self, x: np.ndarray, angles=None) -> tuple[np.ndarray, np.ndarray]:
+        """(R_WM, p_WM) of the cameras' mount, placed with the state estimate
+        x: the body, or the gimbal at `angles`."""
+        R_WB = RollPitchYaw(x[3], x[4], x[5]).ToRotationMatrix().matrix()
+        if self._gimbal is None:
+            return R_WB, x[POSITION]
+        return gimbal_rotation(*angles), x[POSITION] + R_WB @ self._p_BG
+
     def _frame(self, context, state):
-        """Renders every camera now and updates the percept."""
+        """Renders every camera now, updates the percept and points the
+        gimbal for the next frame."""
         x = self._state.Eval(context)
-        X_WB = RigidTransform(
-            RollPitchYaw(x[3], x[4], x[5]).ToRotationMatrix(), x[POSITION]
-        )
+        angles = None
+        if self._gimbal is not None:
+            angles = self.gimbal_angles(context)
+            state.get_mutable_discrete_state(self._angles).SetFromVector(
+                self.next_gimbal_angles(angles, x)
+            )
+        R_WM, p_WM = self.mount_pose(x, angles)
         views = [
-            camera.view(X_WB, cloud.Eval(context), image.Eval(context))
+            camera.view(R_WM, p_WM, cloud.Eval(context), image.Eval(context))
             for camera, image, cloud in zip(
                 self.cameras, self._images, self._clouds, strict=True
             )
@@ -226,13 +305,32 @@ def add_depth_cameras(
     """Adds the VTK renderer and, per camera of the rig, an RgbdSensor on the
     vehicle's body frame and a DepthImageToPointCloud, all feeding the
     DepthCameraSensor "sensor"; returns the latter. Its "state" input is
-    left for the caller to connect to the controller's state estimate."""
+    left for the caller to connect to the controller's state estimate. With
+    a gimbal the RgbdSensors ride on the frame of a `GimbalPose` "gimbal"
+    that the sensor points."""
     scene_graph.AddRenderer(RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
     cameras = mounted_cameras(sensor)
+    gimbal = gimbal_of(sensor)
+    p_BG = sensor.position if gimbal else (0.0, 0.0, 0.0)
     perception = builder.AddNamedSystem(
         "sensor",
-        DepthCameraSensor(cameras, sensor.rate_hz, sensor.memory_s),
+        DepthCameraSensor(cameras, sensor.rate_hz, sensor.memory_s, gimbal, p_BG),
     )
+    mount = geometry.frame_id
+    if gimbal is not None:
+        pose = builder.AddNamedSystem(
+            "gimbal", GimbalPose(scene_graph, geometry.frame_id, p_BG)
+        )
+        builder.Connect(geometry.get_output_port(0), pose.GetInputPort("body_pose"))
+        builder.Connect(
+            perception.GetOutputPort("gimbal_angles"),
+            pose.GetInputPort("gimbal_angles"),
+        )
+        builder.Connect(
+            pose.GetOutputPort("geometry_pose"),
+            scene_graph.get_source_pose_port(pose.source_id),
+        )
+        mount = pose.frame_id
     for i, camera in enumerate(cameras):
         info = camera_info(camera.image)
         core = RenderCameraCore(
@@ -244,8 +342,8 @@ def add_depth_cameras(
         rgbd = builder.AddNamedSystem(
             f"rgbd_sensor_{i}",
             RgbdSensor(
-                geometry.frame_id,
-                camera.X_BC,
+                mount,
+                camera.X_MC,
                 DepthRenderCamera(core, DepthRange(MIN_DEPTH, camera.image.max_range)),
             ),
         )
