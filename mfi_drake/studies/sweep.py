@@ -13,6 +13,11 @@ flight failed, writes its scenario as a replayable YAML under
 DIR/failures/. A rerun with the same arguments reads the file and skips
 every (variant, sensor, density, seed, index, method) already there.
 
+A flight ends once its vehicle has settled at the goal
+(`simulation.settled_monitor`): the rest would be a hover, and its metrics
+differ from the whole duration's by the integrator's accuracy (sim_time
+and steps are those flown).
+
 Outcomes: success (reached and no collision), collision (clearance < 0 at
 any logged step, reached or not), timeout (neither: stuck or too slow within
 the scenario's duration), error (the simulation raised; message recorded).
@@ -141,7 +146,7 @@ def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
         record["moving"] = moving
     record.update(reference)
     try:
-        m = simulate(scenario, method).metrics
+        m = simulate(scenario, method, until_settled=True).metrics
     except Exception as e:  # a failed flight is a result, not a crash of the sweep
         message = " ".join(str(e).split())[:300]
         return record | {"outcome": "error", "error": f"{type(e).__name__}: {message}"}
@@ -351,23 +356,32 @@ def _failure_path(config: SweepConfig, key: FlightKey, scenario: Scenario) -> st
 @contextlib.contextmanager
 def dask_client(workers: int, scheduler: str | None) -> Iterator:
     """A Dask client of the cluster at `scheduler`, else of a LocalCluster of
-    `workers` single-threaded worker processes; both closed on exit."""
+    `workers` single-threaded worker processes; both closed on exit.
+
+    The local workers are forked from a fork server that has imported this
+    module (Drake, the simulation, the reference path) once: a spawned
+    worker starts a fresh interpreter and imports all of it, seconds per
+    worker on a shared machine, where a fork takes milliseconds. The fork
+    server is single-threaded, so forking it is safe, unlike forking this
+    process."""
+    import dask
     from distributed import Client, LocalCluster
+    from distributed.utils import get_mp_context
 
     if scheduler:
         with Client(scheduler, timeout=10) as client:
             yield client
         return
-    with (
-        LocalCluster(
+    with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
+        get_mp_context().set_forkserver_preload(["distributed", __name__])
+        cluster = LocalCluster(
             n_workers=workers,
             threads_per_worker=1,
             processes=True,
             dashboard_address=":0",  # a free port: no clash with other clusters
             silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+        )
+    with cluster, Client(cluster) as client:
         yield client
 
 
