@@ -1,4 +1,4 @@
-"""benchmarks/flight_speed.py runs and reports what it claims (no timing
+"""benchmarks/throughput.py runs and reports what it claims (no timing
 assertions: the numbers depend on the machine)."""
 
 import importlib.util
@@ -10,17 +10,20 @@ from .conftest import ROOT
 
 
 def load_benchmark():
-    path = os.path.join(ROOT, "benchmarks", "flight_speed.py")
-    spec = importlib.util.spec_from_file_location("flight_speed", path)
+    path = os.path.join(ROOT, "benchmarks", "throughput.py")
+    spec = importlib.util.spec_from_file_location("throughput", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
-def test_flight_speed_prints_both_runs_and_their_ratio(capsys):
-    result = load_benchmark().main(["--duration", "2.0", "--repeats", "1"])
+def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
+    page = tmp_path / "performance.md"
+    page.write_text("# P\n<!-- BEGIN throughput -->\nold\n<!-- END throughput -->\n")
+    argv = ["--duration", "2.0", "--repeats", "1", "--split", "1", "--fields", "2"]
+    result = load_benchmark().main(argv + ["--page", str(page)])
     out = capsys.readouterr().out
-    for text in ("MFI flight", "LQR reference", "x real time", "ratio"):
+    for text in ("MFI (Python", "C++ QuadrotorPlant + LQR", "ratio", "flights/min"):
         assert text in out
     mfi, lqr = result["mfi"], result["lqr"]
     assert mfi.sim_time == pytest.approx(2.0)
@@ -32,9 +35,22 @@ def test_flight_speed_prints_both_runs_and_their_ratio(capsys):
     for run in (mfi, lqr):
         assert run.steps > 0
         assert run.derivative_evaluations >= 3 * run.steps
+    assert set(result["split"]) == {
+        "generate",
+        "yaml",
+        "reference",
+        "build",
+        "simulate",
+        "metrics",
+    }
+    assert result["split"]["simulate"] > 0.0
+    assert set(result["rates"]) == {1, 2} and min(result["rates"].values()) > 0.0
+    written = page.read_text()
+    assert "old" not in written and "flights/min" in written
+    assert written.startswith("# P\n<!-- BEGIN throughput -->\n```\ncommit ")
 
 
-def test_flight_speed_rejects_a_non_positive_duration():
+def test_throughput_rejects_a_non_positive_duration():
     with pytest.raises(SystemExit) as error:
         load_benchmark().main(["--duration", "0"])
     assert error.value.code == 2

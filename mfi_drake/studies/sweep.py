@@ -37,6 +37,7 @@ keys the records by `variant` too.
 
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import json
 import logging
@@ -118,10 +119,18 @@ class SweepConfig:
 
 
 # --- the tasks (run in the workers) -------------------------------------------
+@functools.lru_cache(maxsize=4)
+def task_scenario(scenario_yaml: str) -> Scenario:
+    """The task's scenario, parsed once per worker: a field's reference and
+    its flights mostly run on one worker (Dask places a task with its
+    inputs), and parsing costs a few per cent of a flight. Read only."""
+    return scenario_from_yaml(scenario_yaml)
+
+
 def field_reference(scenario_yaml: str) -> dict:
     """The field's reference numbers: the shortest path's length, the straight
     start–goal length and the fraction of that line inside grown obstacles."""
-    scenario = scenario_from_yaml(scenario_yaml)
+    scenario = task_scenario(scenario_yaml)
     start, goal = np.asarray(scenario.start), np.asarray(scenario.goal)
     radius = VEHICLES[scenario.vehicle].collision_radius
     try:
@@ -140,7 +149,7 @@ def field_reference(scenario_yaml: str) -> dict:
 def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
     """Flies the scenario with `method` (a registry name or MODULE:NAME);
     the record's outcome and numbers."""
-    scenario = scenario_from_yaml(scenario_yaml)
+    scenario = task_scenario(scenario_yaml)
     record = {"scenario": scenario.name, "obstacles": len(scenario.obstacles)}
     if moving := sum(moves(o.motion) for o in scenario.obstacles):
         record["moving"] = moving
@@ -431,6 +440,7 @@ def run_sweep(
         for r in records
     }
     fields: dict[tuple, Scenario] = {}
+    texts: dict[tuple, str] = {}  # each field's YAML, written once
     futures = {}
     for key in todo:
         field_key = key.field
@@ -441,16 +451,17 @@ def run_sweep(
             if not fields:
                 validate_scenario(scenario, scenario.name)
             fields[field_key] = scenario
+            texts[field_key] = scenario_to_yaml(scenario)
             if field_key not in known:
                 known[field_key] = client.submit(
                     field_reference,
-                    scenario_to_yaml(scenario),
+                    texts[field_key],
                     key=f"reference-{scenario.name}-{key.sensor}-{key.variant}",
                 )
         scenario = fields[field_key]
         future = client.submit(
             fly_field,
-            scenario_to_yaml(scenario),
+            texts[field_key],
             key.method,
             known[field_key],
             key=f"flight-{key.method}-{scenario.name}-{key.sensor}-{key.variant}",

@@ -1,0 +1,308 @@
+"""Throughput, everything in one run: one flight against a C++-only
+diagram, where a sweep flight's time goes, and sweep flights per minute.
+
+    python benchmarks/throughput.py [--repeats 7] [--duration S] [--split 8]
+        [--fields 40] [--seed S] [--page docs/performance.md]
+
+Prints, all measured in this run (the machine's load average with each):
+
+1. The planar wall flown by MFI (`simulation.simulate`, the diagram
+   `mfi-drake run` flies) and a reference: Drake's C++ `QuadrotorPlant`
+   closed by Drake's C++ `StabilizingLQRController` set at the scenario's
+   start, started there at rest, logging its state at every step, with the
+   same SimulatorConfig and duration. It hovers: an LQR set at the goal,
+   8 m away, commands tilts its linearisation cannot handle. Hovering is no
+   idle run for the integrator: the LQR's fast attitude poles keep the
+   error-controlled RK3 at short steps (~2200 in 40 s). The two are flown
+   in turn, --repeats times each, and each keeps its best wall and CPU
+   time; their real-time factors, steps and µs per step and per derivative
+   evaluation, and the ratio MFI / reference of the real-time factors.
+2. The split of a sweep flight's time (MFI on --split fresh fields at the
+   default density, in this process, as a sweep's worker does it): field
+   generation, the scenario's YAML both ways, the reference path (the
+   field's `field_reference` task), diagram build, simulation, metrics.
+3. Sweep flights per minute: `mfi-drake sweep` of MFI on --fields fresh
+   fields (a seed no earlier run used) at the default density, on a local
+   cluster of 1 and then 2 worker processes, the cluster's start-up and
+   shutdown included.
+
+With --page, the printed text is also written into that page between the
+lines `<!-- BEGIN throughput -->` and `<!-- END throughput -->`, with the
+commit it ran at.
+"""
+
+import argparse
+import dataclasses
+import io
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+from pydrake.examples import StabilizingLQRController
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput
+
+from mfi_drake.config.scenario import Scenario, scenario_to_yaml
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.files import write_section
+from mfi_drake.flight.diagram import build_diagram, make_plant
+from mfi_drake.flight.simulation import fly, run_timed, simulate, simulator_at_start
+from mfi_drake.studies.sweep import (
+    SweepConfig,
+    dask_client,
+    field_reference,
+    run_sweep,
+    task_scenario,
+)
+from mfi_drake.world import generator
+from mfi_drake.world.validation import load_scenario
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PLANAR_WALL = os.path.join(ROOT, "scenarios", "planar_wall.yaml")
+
+
+@dataclasses.dataclass
+class Run:
+    """A timed simulation: the best wall and CPU times over the repeats."""
+
+    sim_time: float
+    wall_time: float
+    cpu_time: float
+    steps: int
+    derivative_evaluations: int
+
+    @property
+    def realtime_factor(self) -> float:
+        return self.sim_time / self.wall_time
+
+    @property
+    def cpu_realtime_factor(self) -> float:
+        return self.sim_time / self.cpu_time
+
+    def describe(self) -> str:
+        return (
+            f"{self.sim_time:.1f} s simulated in {self.wall_time:.4f} s wall = "
+            f"{self.realtime_factor:.1f}x real time (CPU {self.cpu_time:.4f} s = "
+            f"{self.cpu_realtime_factor:.1f}x); {self.steps} steps, "
+            f"{1e6 * self.cpu_time / self.steps:.1f} us CPU per step, "
+            f"{self.derivative_evaluations / self.steps:.2f} derivative "
+            f"evaluations per step, "
+            f"{1e6 * self.cpu_time / self.derivative_evaluations:.1f} us each"
+        )
+
+
+def best(runs: list[Run]) -> Run:
+    """The run of least wall time, with the least CPU time of them all."""
+    fastest = min(runs, key=lambda run: run.wall_time)
+    return dataclasses.replace(fastest, cpu_time=min(r.cpu_time for r in runs))
+
+
+def mfi_run(scenario: Scenario) -> Run:
+    flight = simulate(scenario)
+    return Run(
+        sim_time=flight.metrics["sim_time"],
+        wall_time=flight.wall_time,
+        cpu_time=flight.cpu_time,
+        steps=flight.integrator_steps,
+        derivative_evaluations=flight.derivative_evaluations,
+    )
+
+
+def lqr_run(scenario: Scenario) -> Run:
+    """QuadrotorPlant + StabilizingLQRController hovering at scenario.start."""
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(make_plant(VEHICLES[scenario.vehicle]))
+    controller = builder.AddSystem(
+        StabilizingLQRController(plant, np.asarray(scenario.start, float))
+    )
+    builder.Connect(plant.get_output_port(0), controller.get_input_port())
+    builder.Connect(controller.get_output_port(), plant.get_input_port(0))
+    LogVectorOutput(plant.get_output_port(0), builder, publish_period=0.0)
+    simulator = simulator_at_start(builder.Build(), plant, scenario)
+    wall_time, cpu_time = run_timed(simulator, scenario.duration)
+    integrator = simulator.get_integrator()
+    return Run(
+        sim_time=simulator.get_context().get_time(),
+        wall_time=wall_time,
+        cpu_time=cpu_time,
+        steps=integrator.get_num_steps_taken(),
+        derivative_evaluations=integrator.get_num_derivative_evaluations(),
+    )
+
+
+def load() -> str:
+    return f"load average {os.getloadavg()[0]:.2f}"
+
+
+def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
+    """Part 1: the MFI flight and the C++ reference, flown in turn."""
+    mfi, lqr = [], []
+    say(f"1. {scenario.name}, {scenario.duration:g} s, best of {repeats} ({load()})")
+    for _ in range(repeats):
+        mfi.append(mfi_run(scenario))
+        lqr.append(lqr_run(scenario))
+    mfi, lqr = best(mfi), best(lqr)
+    ratio = mfi.realtime_factor / lqr.realtime_factor
+    cpu_ratio = mfi.cpu_realtime_factor / lqr.cpu_realtime_factor
+    say(f"   MFI (Python LeafSystems): {mfi.describe()}")
+    say(f"   C++ QuadrotorPlant + LQR: {lqr.describe()}")
+    say(
+        f"   ratio of real-time factors MFI / C++: {ratio:.4f} wall, "
+        f"{cpu_ratio:.4f} CPU ({load()})"
+    )
+    return {"mfi": mfi, "lqr": lqr, "ratio": ratio, "cpu_ratio": cpu_ratio}
+
+
+PIECES = ("generate", "yaml", "reference", "build", "simulate", "metrics")
+
+
+def split(fields: int, seed: int, say) -> dict[str, float]:
+    """Part 2: mean seconds per flight of each piece of a sweep flight."""
+    totals = dict.fromkeys(PIECES, 0.0)
+    steps = sim_time = 0
+    with tempfile.TemporaryDirectory() as out:
+        for index in range(fields):
+            clock = time.process_time()
+
+            def lap(piece: str) -> None:
+                nonlocal clock
+                now = time.process_time()
+                totals[piece] += now - clock
+                clock = now
+
+            scenario = generator.random_field(
+                seed, index, generator.DEFAULT_DENSITY, out
+            )
+            lap("generate")
+            text = scenario_to_yaml(scenario)  # the client's
+            scenario = task_scenario(text)  # the worker's (once per field)
+            lap("yaml")
+            field_reference(text)
+            lap("reference")
+            built = build_diagram(scenario)
+            lap("build")
+            flight = fly(built, until_settled=True)
+            # fly() = the simulation (its own CPU time) + reading the log and
+            # the metrics.
+            lap("metrics")
+            totals["simulate"] += flight.cpu_time
+            totals["metrics"] -= flight.cpu_time
+            steps += flight.integrator_steps
+            sim_time += flight.metrics["sim_time"]
+    whole = sum(totals.values())
+    say(
+        f"2. a sweep flight's CPU time, MFI on {fields} fresh fields at density "
+        f"{generator.DEFAULT_DENSITY:g} (seed {seed}), flown until settled "
+        f"({sim_time / fields:.1f} s simulated, {steps / fields:.0f} steps "
+        f"on average; {load()}):"
+    )
+    for piece in PIECES:
+        share = totals[piece] / whole
+        mean = 1e3 * totals[piece] / fields
+        say(f"   {piece:10s} {mean:7.1f} ms  {100 * share:5.1f} %")
+    say(f"   {'total':10s} {1e3 * whole / fields:7.1f} ms")
+    return {piece: totals[piece] / fields for piece in PIECES}
+
+
+def one_sweep(workers: int, fields: int, seed: int) -> None:
+    """One MFI sweep on a local cluster (what `--one-sweep` runs in a
+    process of its own)."""
+    with tempfile.TemporaryDirectory() as out, dask_client(workers, None) as client:
+        config = SweepConfig(n=fields, seed=seed, methods=["mfi"], out=out)
+        run = run_sweep(config, client, progress_stream=io.StringIO())
+    if run.ran != fields or run.lost:
+        raise RuntimeError(f"expected {fields} flights, ran {run.ran}: {run.lost}")
+
+
+def flights_per_minute(workers: int, fields: int, seed: int) -> tuple[float, float]:
+    """(wall time [s], flights per minute) of one MFI sweep in a fresh
+    Python process, as `mfi-drake sweep` runs it: its imports, the local
+    cluster's start-up and shutdown included."""
+    start = time.perf_counter()
+    subprocess.run(
+        [sys.executable, __file__, "--one-sweep", str(workers), str(fields), str(seed)],
+        check=True,
+    )
+    wall = time.perf_counter() - start
+    return wall, 60.0 * fields / wall
+
+
+def sweeps(fields: int, seed: int, say) -> dict[int, float]:
+    """Part 3: flights per minute on 1 and 2 workers, each on fresh fields."""
+    say(
+        f"3. MFI sweep of {fields} fresh fields at density "
+        f"{generator.DEFAULT_DENSITY:g}, a fresh process each, start-up included:"
+    )
+    rates = {}
+    for workers in (1, 2):
+        before = load()
+        wall, rates[workers] = flights_per_minute(workers, fields, seed + workers)
+        plural = "s" if workers > 1 else " "
+        say(
+            f"   {workers} worker{plural} (seed {seed + workers}): {wall:6.1f} s, "
+            f"{rates[workers]:6.1f} flights/min ({before} before)"
+        )
+    return rates
+
+
+def commit() -> str:
+    try:
+        return subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenario", default=PLANAR_WALL)
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--duration", type=float, help="override the duration [s]")
+    parser.add_argument("--split", type=int, default=8, help="fields of part 2")
+    parser.add_argument("--fields", type=int, default=40, help="fields per sweep")
+    parser.add_argument(
+        "--seed", type=int, help="first seed of the fresh fields (default: the time)"
+    )
+    parser.add_argument("--page", help="a page to write the output into")
+    parser.add_argument(
+        "--one-sweep", nargs=3, type=int, help=argparse.SUPPRESS
+    )  # WORKERS FIELDS SEED: part 3's child process
+    args = parser.parse_args(argv)
+    if args.one_sweep:
+        one_sweep(*args.one_sweep)
+        return {}
+    for name in ("repeats", "split", "fields"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name} = {getattr(args, name)}: must be >= 1")
+    scenario = load_scenario(args.scenario)
+    if args.duration is not None:
+        if not args.duration > 0.0:
+            parser.error(f"--duration = {args.duration}: must be > 0")
+        scenario = dataclasses.replace(scenario, duration=args.duration)
+    # Fresh fields: no earlier run, and no worker's cache, has seen them.
+    seed = args.seed if args.seed is not None else int(time.time()) % 1_000_000
+    lines = [f"commit {commit()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}"]
+
+    def say(line: str) -> None:
+        lines.append(line)
+        print(line, flush=True)
+
+    print(lines[0])
+    result = against_cpp(scenario, args.repeats, say)
+    result["split"] = split(args.split, seed, say)
+    result["rates"] = sweeps(args.fields, seed + 1, say)
+    if args.page:
+        write_section(args.page, "throughput", "```\n" + "\n".join(lines) + "\n```")
+    return result
+
+
+if __name__ == "__main__":
+    main()
