@@ -14,7 +14,13 @@ from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Cameras, Scenario, SphereSensor
 from mfi_drake.flight.diagram import FlightDiagram, build_diagram
 from mfi_drake.flight.methods import Method
-from mfi_drake.maths.layout import ANGULAR_RATE, POSITION, STATE_SIZE, VELOCITY
+from mfi_drake.maths.layout import (
+    ANGULAR_RATE,
+    ATTITUDE,
+    POSITION,
+    STATE_SIZE,
+    VELOCITY,
+)
 from mfi_drake.world.motion import is_dynamic
 from mfi_drake.world.obstacles import obstacle_distances
 
@@ -154,18 +160,19 @@ def settled_monitor(flight: FlightDiagram):
     Used by sweeps (their flights last 60 s and settle by ~18 s, a third of
     their steps); a run flies its whole duration."""
     plant, scenario = flight.plant, flight.scenario
-    goal = np.asarray(scenario.goal, float)
+    goal = [float(g) for g in scenario.goal]
     epsilon = scenario.simulator.accuracy
     since = [None]  # when the hover began
+    # At rest: roll, pitch, the velocity and the angular rates all zero.
+    index = range(STATE_SIZE)
+    still = [*index[ATTITUDE][:2], *index[VELOCITY], *index[ANGULAR_RATE]]
 
     def monitor(context) -> EventStatus:
-        x = plant.GetMyContextFromRoot(context).get_continuous_state_vector()
-        x = x.CopyToVector()
+        state = plant.GetMyContextFromRoot(context).get_continuous_state_vector()
+        x = state.CopyToVector().tolist()  # Python floats: cheap to compare
         at_rest = (
-            np.abs(x[POSITION] - goal).max() <= epsilon
-            and np.abs(x[VELOCITY]).max() <= epsilon
-            and np.abs(x[3:5]).max() <= epsilon  # roll, pitch
-            and np.abs(x[ANGULAR_RATE]).max() <= epsilon
+            max(abs(x[i] - goal[i]) for i in range(3)) <= epsilon
+            and max(abs(x[i]) for i in still) <= epsilon
         )
         t = context.get_time()
         if not at_rest:
