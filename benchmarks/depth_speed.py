@@ -4,7 +4,8 @@ costs.
     python benchmarks/depth_speed.py [--repeats 3]
 
 For scenarios/pelican_cylinder.yaml and pelican_cube.yaml, flown as
-`mfi-drake run` flies them (`simulation.simulate`):
+`mfi-drake run` flies them (`simulation.simulate`), the camera fixed to the
+body as the files have it and on a gimbal (`gimbal: {}`):
 
 1. the best wall time of Initialize + AdvanceTo over --repeats and its
    real-time factor, the best process CPU time of the whole `simulate` call
@@ -31,7 +32,7 @@ import time
 
 import numpy as np
 
-from mfi_drake.config.scenario import Scenario, SphereSensor
+from mfi_drake.config.scenario import Gimbal, Scenario, SphereSensor
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import Flight, simulate
 from mfi_drake.maths.layout import OBSTACLE_COUNT
@@ -136,18 +137,27 @@ def main() -> None:
             f"{scenario.name}: depth camera {camera.width}x{camera.height}, "
             f"{camera.rate_hz:g} frames/s (best of {args.repeats})"
         )
-        flight, cpu = best_of(scenario, args.repeats)
-        print(line("depth", flight, cpu))
+        # As the scenario has it (fixed to the body), then on the gimbal.
+        gimballed = dataclasses.replace(camera, gimbal=Gimbal())
+        flights = {}
+        for label, sensor in (("depth", camera), ("gimbal", gimballed)):
+            flight, cpu = best_of(
+                dataclasses.replace(scenario, sensor=sensor), args.repeats
+            )
+            print(line(label, flight, cpu))
+            flights[label] = flight
         sphere = dataclasses.replace(
             scenario, sensor=SphereSensor(radius=camera.max_range)
         )
         print(line("sphere", *best_of(sphere, args.repeats)))
-        costs = frame_costs(flight)
-        split = ", ".join(f"{piece} {costs[piece]:.0f}" for piece in PIECES)
-        print(
-            f"  per frame [µs CPU]: {split}; total {sum(costs[p] for p in PIECES):.0f}"
-            f"; a reading between frames {costs['reading']:.0f}"
-        )
+        for label, flight in flights.items():
+            costs = frame_costs(flight)
+            split = ", ".join(f"{piece} {costs[piece]:.0f}" for piece in PIECES)
+            print(
+                f"  {label} per frame [µs CPU]: {split}; "
+                f"total {sum(costs[p] for p in PIECES):.0f}"
+                f"; a reading between frames {costs['reading']:.0f}"
+            )
 
 
 if __name__ == "__main__":
