@@ -4,7 +4,7 @@
                                   [--override FILE] [--workers 2]
                                   [--out docs/results/ablation]
 
-Flies the default MFI and, for each repair of `NavigatorParams` (a)–(e), the
+Flies the default MFI and, for each repair of `NavigatorParams` (a)–(f), the
 default MFI with that one repair toggled (the ones on turned off, the ones
 off turned on), and the paper's literal MFI, on the same held-out fields
 (`mfi-drake sweep`'s fields at --seed, which `mfi-drake tune` never trains

@@ -192,8 +192,8 @@ def _boundary_following(
 ) -> tuple:
     if r >= r_l:
         return _zeros(l_a[0])
-    f = speed * (1.0 / r - 1.0 / r_l) if tapered else speed / r
-    return _scaled(_cross(l_a, _cross(l_o, l_a)), c * f)
+    k = c * speed * (1.0 / r - 1.0 / r_l) if tapered else c * speed / r
+    return _scaled(_cross(l_a, _cross(l_o, l_a)), k)
 
 
 def boundary_following_field(
