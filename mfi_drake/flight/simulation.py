@@ -155,10 +155,10 @@ def settled_monitor(flight: FlightDiagram):
     goal at every step of that time. The rest of the flight is that hover,
     so its metrics are known to within ~ε: the outcome, clearance and
     convergence time do not change, the final error and the path still to
-    fly are of the order of ε (≤ 1.4e-4 m at ε = 1e-4 over 24 random-field
+    fly are of the order of ε (≤ 1.7e-4 m at ε = 1e-4 over 24 random-field
     flights of every method); sim_time and steps are the flight's own.
-    Used by sweeps (their flights last 60 s and settle by ~18 s, a third of
-    their steps); a run flies its whole duration."""
+    Used by sweeps (their flights last 60 s; MFI's settle by ~20–30 s,
+    which spares a fifth of their steps); a run flies its whole duration."""
     plant, scenario = flight.plant, flight.scenario
     goal = [float(g) for g in scenario.goal]
     epsilon = scenario.simulator.accuracy
