@@ -18,6 +18,9 @@ controller's state estimate, as an on-board computer would, and keeps the
 percept of `maths.perception` (the memory and the voxels of the nearest
 obstacles) in abstract state, updated at the rig's rate; between frames each
 reading is re-read from its obstacle's voxel as the estimated position moves.
+A `DepthCamera` with a gimbal rides on the frame of `gimbal.GimbalPose`
+instead of the body's, and `DepthCameraSensor` points it along the
+estimated velocity.
 """
 
 from dataclasses import dataclass
