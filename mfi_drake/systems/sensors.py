@@ -1,6 +1,7 @@
 """The vehicle in SceneGraph and the paper's sphere sensor (§III)."""
 
 import copy
+import math
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -21,10 +22,16 @@ from pydrake.geometry import Sphere as DrakeSphere
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.framework import LeafSystem
 
-from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, POSITION, STATE_SIZE
+from mfi_drake.maths.layout import (
+    OBSTACLE_SIGNAL_SIZE,
+    POSITION,
+    STATE_SIZE,
+    readings,
+)
 from mfi_drake.world.obstacles import nearest_obstacles
 
 VEHICLE_RGBA = Rgba(0.1, 0.3, 0.8, 1.0)
+SLACK = 1e-3  # [m] added to a shortened reach, for the distances' rounding
 
 
 class SphereSensor(LeafSystem):
@@ -54,7 +61,8 @@ class SphereSensor(LeafSystem):
         self._radius = float(radius)
         self._ignored = frozenset(ignored)
         self._moving = bool(moving)
-        self._last = (None, None, None)  # (position bytes, version, reading)
+        # (position bytes, geometry version, reading, position), see _calc
+        self._last = (None, None, None, None)
         self._query = self.DeclareAbstractInputPort(
             "query", AbstractValue.Make(QueryObject())
         )
@@ -80,13 +88,25 @@ class SphereSensor(LeafSystem):
         # repeats the logger's). The query object is valid only during this
         # evaluation: not kept.
         key = p.tobytes()
-        last_key, version, value = self._last
-        if key != last_key or not query.inspector().geometry_version().IsSameAs(
+        last_key, version, value, last_p = self._last
+        if key == last_key and query.inspector().geometry_version().IsSameAs(
             version, Role.kProximity
         ):
-            value = nearest_obstacles(query, p, self._radius)
-            version = copy.copy(query.inspector().geometry_version())
-            self._last = (key, version, value)
+            output.SetFromVector(value)
+            return
+        current = query.inspector().geometry_version()
+        reach = self._radius
+        farthest, seen = readings(value)[-1] if value is not None else (None, 0.0)
+        if seen > 0.5 and current.IsSameAs(version, Role.kProximity):
+            # The nearest obstacles are no farther than the last reading's
+            # farthest plus the distance moved (distances are 1-Lipschitz):
+            # that reach lets SceneGraph's broadphase skip every obstacle
+            # beyond it, and the reading is the one of the full radius.
+            reach = min(reach, math.hypot(*farthest) + math.dist(p, last_p) + SLACK)
+        value = nearest_obstacles(query, p, reach)
+        if readings(value)[-1][1] <= 0.5 and reach < self._radius:
+            value = nearest_obstacles(query, p, self._radius)  # never met so far
+        self._last = (key, copy.copy(current), value, p.copy())
         output.SetFromVector(value)
 
 
