@@ -24,6 +24,7 @@ from mfi_drake.maths.layout import (
     OBSTACLE_SIGNAL_SIZE,
     STATE_SIZE,
     obstacle_signal,
+    seen_points,
 )
 from mfi_drake.maths.motion import (
     displacement,
@@ -408,11 +409,33 @@ def test_bad_dynamic_input_is_one_line_and_exit_2(
     assert path in err and needle in err
 
 
-def test_other_vehicles_fly_with_the_sphere_sensor_only(write_yaml):
-    text = GOOD + "sensor: !DepthCamera {}\n"
-    with pytest.raises(sc.ScenarioError, match="sphere sensor only"):
-        load_scenario(write_yaml(text))
+def test_a_vehicles_camera_sees_the_other_vehicle_and_not_itself(write_yaml):
+    # Two vehicles 3 m apart on the x axis, the first looking along +x at the
+    # second, which looks back; nothing else in the scene.
+    text = """\
+name: two_cameras
+start: [0.0, 0.0, 1.5]
+goal: [0.0, 4.0, 1.5]
+duration: 0.05
+sensor: !DepthCamera {}
+other_vehicles:
+  - {start: [3.0, 0.0, 1.5], goal: [3.0, -4.0, 1.5]}
+"""
+    flight = simulate(load_scenario(write_yaml(text)))
+    r = flight.collision_radius
+    seen = np.linalg.norm(seen_points(flight.log["obstacle"][-1]), axis=1)
+    # The other's sphere, its nearest point 3 − r from this centre; the own
+    # sphere, which its camera is inside, is clipped, not read at r.
+    assert len(seen) == 1 and seen[0] == pytest.approx(3.0 - r, abs=0.03)
     assert OtherVehicle().start != OtherVehicle().goal and Ground().height == 0.0
+
+
+def test_two_vehicles_on_cameras_swap_the_corridor():
+    path = os.path.join(SCENARIOS, "swarm_corridor.yaml")
+    scenario = load_scenario(path, [("--set", "sensor: !DepthCamera {}")])
+    flight = simulate(scenario)
+    assert all(v["reached"] and not v["collided"] for v in flight.metrics["vehicles"])
+    assert flight.metrics["min_separation"] > 0.0
 
 
 def test_a_sweep_with_moving_obstacles_keys_and_counts_them(tmp_path, threads_client):

@@ -318,13 +318,6 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
     for i, other in enumerate(scenario.other_vehicles):
         _check_vector(where, f"other_vehicles[{i}].start", other.start)
         _check_vector(where, f"other_vehicles[{i}].goal", other.goal)
-    if scenario.other_vehicles and isinstance(scenario.sensor, Cameras):
-        fail(
-            where,
-            "other_vehicles",
-            scenario.other_vehicles,
-            "are flown with the sphere sensor only (one depth renderer per scene)",
-        )
     if scenario.other_vehicles and scenario.faults != Faults():
         fail(
             where, "other_vehicles", scenario.other_vehicles, "are flown without faults"

@@ -115,7 +115,14 @@ def add_sensor(
     sensor does not see its own vehicle's collision sphere. `geometry`: the
     vehicle in SceneGraph (`needs_geometry`), else None."""
     if isinstance(scenario.sensor, Cameras):
-        return add_depth_cameras(builder, scenario.sensor, scene_graph, geometry)
+        return add_depth_cameras(
+            builder,
+            scenario.sensor,
+            scene_graph,
+            geometry,
+            suffix,
+            geometry.sphere_radius or 0.0,
+        )
     if not isinstance(scenario.sensor, SphereSensor):
         raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
     sensor = builder.AddNamedSystem(
@@ -277,6 +284,7 @@ def add_vehicle(
                     vehicle.collision_radius if scenario.other_vehicles else None
                 ),
                 name=f"vehicle{suffix}",
+                perceived=isinstance(scenario.sensor, Cameras),
             ),
         )
         builder.Connect(plant.get_output_port(0), geometry.get_input_port(0))

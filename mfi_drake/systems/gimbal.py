@@ -37,11 +37,13 @@ class GimbalPose(LeafSystem):
     `frame_id`, at `p_BG` on the body, for SceneGraph's source `source_id`.
     """
 
-    def __init__(self, scene_graph: SceneGraph, body_id: FrameId, p_BG):
+    def __init__(
+        self, scene_graph: SceneGraph, body_id: FrameId, p_BG, name: str = "gimbal"
+    ):
         super().__init__()
         self._body_id = body_id
         self._p_BG = np.asarray(p_BG, dtype=float)
-        self.source_id = scene_graph.RegisterSource("gimbal")
+        self.source_id = scene_graph.RegisterSource(name)
         self.frame_id = scene_graph.RegisterFrame(
             self.source_id, GeometryFrame("gimbal")
         )

@@ -12,8 +12,10 @@ from pydrake.geometry import (
     GeometryFrame,
     GeometryInstance,
     IllustrationProperties,
+    PerceptionProperties,
     ProximityProperties,
     QueryObject,
+    RenderLabel,
     Rgba,
     Role,
     SceneGraph,
@@ -125,9 +127,11 @@ class VehicleGeometry(LeafSystem):
     The shapes carry only the illustration role: the vehicle is drawn, but
     neither the sphere sensor nor a camera can see it. With `sphere_radius`
     (among several vehicles) its collision sphere is registered too, with
-    the proximity role only: the other vehicles' sphere sensors see it
-    (`sphere_id`; its own sensor ignores it). `name`: its SceneGraph
-    source's, one per vehicle.
+    the proximity role: the other vehicles' sphere sensors see it
+    (`sphere_id`; its own sensor ignores it); with `perceived` also the
+    perception role, for their cameras (its own cameras clip it: their
+    near plane lies beyond it). `name`: its SceneGraph source's, one per
+    vehicle.
     """
 
     def __init__(
@@ -138,6 +142,7 @@ class VehicleGeometry(LeafSystem):
         rgba: Rgba = VEHICLE_RGBA,
         sphere_radius: float | None = None,
         name: str = "vehicle",
+        perceived: bool = False,
     ):
         super().__init__()
         self._source = scene_graph.RegisterSource(name)
@@ -165,11 +170,17 @@ class VehicleGeometry(LeafSystem):
             instance.set_illustration_properties(illustration)
             scene_graph.RegisterGeometry(self._source, self.frame_id, instance)
         self.sphere_id = None
+        self.sphere_radius = sphere_radius
         if sphere_radius is not None:
             sphere = GeometryInstance(
                 RigidTransform(), DrakeSphere(sphere_radius), "collision_sphere"
             )
             sphere.set_proximity_properties(ProximityProperties())
+            if perceived:
+                seen = PerceptionProperties()
+                seen.AddProperty("phong", "diffuse", rgba)
+                seen.AddProperty("label", "id", RenderLabel.kDontCare)
+                sphere.set_perception_properties(seen)
             self.sphere_id = scene_graph.RegisterGeometry(
                 self._source, self.frame_id, sphere
             )
