@@ -1,7 +1,7 @@
 """Every method among moving obstacles, on held-out fields (docs/dynamic.md).
 
     python benchmarks/moving.py [--n 30] [--seed 2026] [--density 0.1]
-                                [--share 0.3] [--speeds 0.5 1.0]
+                                [--share 0.3] [--speeds 0.5 1.0 0.25]
                                 [--ablation-speed 1.0] [--ablation-methods mfi]
                                 [--workers 1] [--out docs/results/moving]
                                 [--page docs/dynamic.md]
@@ -66,7 +66,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=2026, help="held-out seed")
     parser.add_argument("--density", type=float, default=0.1)
     parser.add_argument("--share", type=float, default=0.3, help="moving share")
-    parser.add_argument("--speeds", type=float, nargs="+", default=[0.5, 1.0])
+    parser.add_argument("--speeds", type=float, nargs="+", default=[0.5, 1.0, 0.25])
     parser.add_argument("--ablation-speed", type=float, default=1.0)
     parser.add_argument("--ablation-methods", default="mfi")
     parser.add_argument("--workers", type=int, default=1)
@@ -130,7 +130,7 @@ def table(args, rows) -> str:
             f"{s['median_path_ratio']:.3f} [{ci[0]:.3f}, {ci[1]:.3f}]"
         )  # fmt: skip
         lines.append(
-            f"| {speed:g} | {way if speed else '(nothing moves)'} | {method} "
+            f"| {speed:g} | {_way(speed, way)} | {method} "
             f"| {s['n']} | {rate_cell(s, 'success')} "
             f"| {rate_cell(s, 'collision')} | {rate_cell(s, 'timeout')} | {ratio} "
             f"| {'–' if error is None else f'{error:.2f}'} |"
@@ -157,9 +157,13 @@ def summary(args, rows) -> str:
     ]
     for (speed, way), by_method in cells.items():
         row = [by_method.get(m, "–") for m in methods]
-        way = way if speed else "(nothing moves)"
-        lines.append(f"| {speed:g} | {way} | " + " | ".join(row) + " |")
+        lines.append(f"| {speed:g} | {_way(speed, way)} | " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
+
+
+def _way(speed: float, way: str) -> str:
+    """How the navigator sees motion, as a row names it (speed 0: static)."""
+    return way if speed else "(nothing moves)"
 
 
 if __name__ == "__main__":

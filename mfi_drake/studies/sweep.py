@@ -13,10 +13,11 @@ flight failed, writes its scenario as a replayable YAML under
 DIR/failures/. A rerun with the same arguments reads the file and skips
 every (variant, sensor, density, seed, index, method) already there.
 
-A flight ends once its vehicle has settled at the goal
-(`simulation.settled_monitor`): the rest would be a hover, and its metrics
-differ from the whole duration's by the integrator's accuracy (sim_time
-and steps are those flown).
+A flight of a static scene with the sphere sensor and no faults ends once
+its vehicle has settled at the goal (`simulation.settles`,
+`settled_monitor`): the rest would be a hover, and its metrics differ from
+the whole duration's by the integrator's accuracy (sim_time and steps are
+those flown).
 
 Outcomes: success (reached and no collision), collision (clearance < 0 at
 any logged step, reached or not), timeout (neither: stuck or too slow within

@@ -12,7 +12,6 @@ from pydrake.geometry import (
     GeometryFrame,
     GeometryInstance,
     IllustrationProperties,
-    PerceptionProperties,
     ProximityProperties,
     QueryObject,
     RenderLabel,
@@ -30,7 +29,7 @@ from mfi_drake.maths.layout import (
     STATE_SIZE,
     readings,
 )
-from mfi_drake.world.obstacles import nearest_obstacles
+from mfi_drake.world.obstacles import nearest_obstacles, sensed
 
 VEHICLE_RGBA = Rgba(0.1, 0.3, 0.8, 1.0)
 SLACK = 1e-3  # [m] added to a shortened reach, for the distances' rounding
@@ -175,12 +174,10 @@ class VehicleGeometry(LeafSystem):
             sphere = GeometryInstance(
                 RigidTransform(), DrakeSphere(sphere_radius), "collision_sphere"
             )
-            sphere.set_proximity_properties(ProximityProperties())
             if perceived:
-                seen = PerceptionProperties()
-                seen.AddProperty("phong", "diffuse", rgba)
-                seen.AddProperty("label", "id", RenderLabel.kDontCare)
-                sphere.set_perception_properties(seen)
+                sensed(sphere, rgba, RenderLabel.kDontCare)
+            else:
+                sphere.set_proximity_properties(ProximityProperties())
             self.sphere_id = scene_graph.RegisterGeometry(
                 self._source, self.frame_id, sphere
             )

@@ -142,14 +142,8 @@ def random_field(
         raise ValueError(f"density = {density!r}: must be a finite number ≥ 0")
     os.makedirs(mesh_dir, exist_ok=True)
     name = field_name(seed, index, density)
-    scenario = sc.Scenario(
-        name=name,
-        start=workspace.start,
-        goal=workspace.goal,
-        duration=duration,
-        vehicle=vehicle,
-        sensor=sensor if sensor is not None else sc.SphereSensor(),
-        base_dir=os.path.abspath(mesh_dir),
+    scenario = _field(
+        name, workspace, vehicle, sensor, duration, base_dir=os.path.abspath(mesh_dir)
     )
     needed = VEHICLES[vehicle].collision_radius + workspace.clearance
     low, high = workspace.box
@@ -196,8 +190,7 @@ def wall_field(
     it in the middle fifth of the line's length and at least WALL_OVERLAP
     from every edge of the wall; stream default_rng([seed, index,
     WALL_STREAM]). The ends are clear of it by construction: each is at least
-    0.4·length·cos(WALL_YAW_DEG) − thickness/2 ≈ 3.4 m from the wall's plane
-    (the line meets the wall in the middle fifth)."""
+    0.4·length·cos(WALL_YAW_DEG) − thickness/2 ≈ 3.4 m from the wall's plane."""
     rng = np.random.default_rng([seed, index, WALL_STREAM])
     length, thickness, height = (
         rng.uniform(*r) for r in (WALL_LENGTHS, WALL_THICKNESSES, WALL_HEIGHTS)
@@ -213,13 +206,12 @@ def wall_field(
         -along * math.cos(math.radians(yaw)),
         workspace.height + rng.uniform(-lift, lift),
     ]
-    scenario = sc.Scenario(
-        name=wall_name(seed, index),
-        start=workspace.start,
-        goal=workspace.goal,
-        duration=duration,
-        vehicle=vehicle,
-        sensor=sensor if sensor is not None else sc.SphereSensor(),
+    return _field(
+        wall_name(seed, index),
+        workspace,
+        vehicle,
+        sensor,
+        duration,
         obstacles=[
             sc.Obstacle(
                 shape=sc.Box(size=[thickness, length, height]),
@@ -228,7 +220,27 @@ def wall_field(
             )
         ],
     )
-    return scenario
+
+
+def _field(
+    name: str,
+    workspace: Workspace,
+    vehicle: str,
+    sensor: sc.Sensor | None,
+    duration: float,
+    **fields,
+) -> sc.Scenario:
+    """A field's scenario from the workspace's start to its goal, with the
+    sphere sensor unless `sensor` is given; `fields`: the rest."""
+    return sc.Scenario(
+        name=name,
+        start=workspace.start,
+        goal=workspace.goal,
+        duration=duration,
+        vehicle=vehicle,
+        sensor=sensor if sensor is not None else sc.SphereSensor(),
+        **fields,
+    )
 
 
 def circle_motion(rng: np.random.Generator, radius: float, speed: float) -> Motion:

@@ -74,7 +74,7 @@ def register_obstacles(
         instance = GeometryInstance(
             pose, drake_shape(scenario, obstacle.shape), f"obstacle_{i}"
         )
-        _sensed(instance, OBSTACLE_RGBA, i + 1)
+        sensed(instance, OBSTACLE_RGBA, RenderLabel(i + 1))
         illustration = IllustrationProperties()
         illustration.AddProperty("phong", "diffuse", OBSTACLE_RGBA)
         instance.set_illustration_properties(illustration)
@@ -89,18 +89,18 @@ def register_obstacles(
             HalfSpace(),
             "ground",
         )
-        _sensed(ground, GROUND_RGBA, len(scenario.obstacles) + 1)
+        sensed(ground, GROUND_RGBA, RenderLabel(len(scenario.obstacles) + 1))
         scene_graph.RegisterAnchoredGeometry(source, ground)
     return ObstacleFrames(source, moving)
 
 
-def _sensed(instance: GeometryInstance, rgba: Rgba, label: int) -> None:
+def sensed(instance: GeometryInstance, rgba: Rgba, label: RenderLabel) -> None:
     """The proximity role (sphere sensor, clearance) and the perception role
-    (depth camera) of an obstacle or the ground."""
+    (depth camera) of an obstacle, the ground or a vehicle's sphere."""
     instance.set_proximity_properties(ProximityProperties())
     perception = PerceptionProperties()
     perception.AddProperty("phong", "diffuse", rgba)
-    perception.AddProperty("label", "id", RenderLabel(label))
+    perception.AddProperty("label", "id", label)
     instance.set_perception_properties(perception)
 
 
