@@ -192,7 +192,9 @@ def test_reference_path_is_straight_without_obstacles_in_the_way():
         goal=[10, 0, 2],
         obstacles=[sc.Obstacle(sc.Sphere(0.5), [5, 3, 2])],
     )
-    assert reference_path(field).length == pytest.approx(10.0, abs=1e-9)
+    ref = reference_path(field)
+    assert ref.length == pytest.approx(10.0, abs=1e-9)
+    np.testing.assert_array_equal(ref.points, [field.start, field.goal])
 
 
 # --- statistics ---------------------------------------------------------------------

@@ -3,7 +3,8 @@ vehicle's centre, i.e. of a point among the obstacles grown by the vehicle's
 collision radius R. A flight's path-length ratio is its path length over
 this one.
 
-How it is found (`reference_path`):
+How it is found (`reference_path`), when the straight line from start to
+goal is not free (when it is, it is the path):
 
 1. A* on a 26-connected 3-D grid of cell size h (default 0.1 m) over the box
    that holds the start, the goal and every grown obstacle (a shortest path
@@ -223,18 +224,30 @@ def tighten(
     # On lists of Python floats: numpy on single 3-vectors costs more than
     # the arithmetic, and a field's reference takes ~10⁵ of these updates.
     p = resample(points, spacing).tolist()
+    # A lower bound on each point's clearance: the distance is 1-Lipschitz,
+    # so a point that moves less than its bound stays free without a query
+    # (the result is the same; most points are far from every obstacle).
+    free = [-math.inf] * len(p)
     for _ in range(sweeps):
         moved = 0.0
         for i in range(1, len(p) - 1):
             a, b = p[i - 1], p[i + 1]
             m = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])]
-            for _ in range(3):  # overlapping obstacles may need a few pushes
-                c, grad = clearance.closest(m, spacing)
-                if c >= 0.0:
-                    break
-                m = [m[k] - c * grad[k] for k in range(3)]
             d = [m[k] - p[i][k] for k in range(3)]
-            moved = max(moved, math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
+            step = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+            if free[i] - step >= 0.0:
+                free[i] -= step
+            else:
+                for _ in range(3):  # overlapping obstacles may need a few pushes
+                    c, grad = clearance.closest(m, spacing)
+                    if c >= 0.0:
+                        break
+                    m = [m[k] - c * grad[k] for k in range(3)]
+                # After a push m lies on a surface: clearance ~0, no margin.
+                free[i] = c if c >= 0.0 else -math.inf
+                d = [m[k] - p[i][k] for k in range(3)]
+                step = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+            moved = max(moved, step)
             p[i] = m
         if moved < 1e-4:
             break
@@ -248,6 +261,12 @@ def reference_path(scenario: sc.Scenario, cell: float = 0.1) -> ReferencePath:
     clearance = Clearance(scenario, radius)
     start = np.asarray(scenario.start, float)
     goal = np.asarray(scenario.goal, float)
+    if clearance.segment_free(start, goal, 0.0):
+        # The straight line is the shortest of all paths: steps 1–3 would
+        # only find it again.
+        line = np.array([start, goal])
+        length = polyline_length(line)
+        return ReferencePath(line, length, length, length)
     corners = [start, goal]
     for obstacle in scenario.obstacles:
         reach = bounding_radius(scenario, obstacle.shape) + radius
