@@ -5,30 +5,30 @@ The paper's fields are written with the vehicle's velocity v. Among moving
 obstacles the natural generalisation is, per obstacle, the velocity relative
 to it, v − u. The sensor measures positions only, so u is estimated from
 successive readings (`ObstacleVelocityEstimator`, the normal velocity of
-`maths.motion`), and the method's own navigator is flown once per reading,
-each copy given one reading and v − u of its obstacle (`RelativeReadings`);
-their forces add, as the fields of separate obstacles do:
+`maths.motion`), and the method's own obstacle field is evaluated once per
+reading, given that reading alone and v − u of its obstacle
+(`RelativeNavigator`); the terms add, as the fields of separate obstacles
+do:
 
     state, obstacle ──▶ ObstacleVelocityEstimator ──obstacle_velocity──┐
-    state, obstacle ──▶ RelativeReadings ◀─────────────────────────────┘
-                            │ state_i, obstacle_i (i < OBSTACLE_COUNT)
-                            ▼
-                       navigator_i ──▶ Adders ──▶ obstacle_force(_terms)
+    state, obstacle ──▶ RelativeNavigator ◀────────────────────────────┘
+                            └──▶ obstacle_force, obstacle_force_terms
 
 `relative_navigator` builds that as one diagram with the ports of a
 navigator ("state", "obstacle" → "obstacle_force", "obstacle_force_terms"),
 plus "obstacle_velocity" for the log.
 """
 
+import copy
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
-from pydrake.systems.primitives import Adder
 
 from mfi_drake.config.dynamic import RelativeVelocity
+from mfi_drake.maths import fields
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,
@@ -36,6 +36,7 @@ from mfi_drake.maths.layout import (
     STATE_SIZE,
     VELOCITY,
     obstacle_signal,
+    position_velocity,
     readings,
 )
 from mfi_drake.maths.motion import (
@@ -45,6 +46,7 @@ from mfi_drake.maths.motion import (
     match_points,
     normal_velocity,
 )
+from mfi_drake.systems.last_result import LastResult
 
 VELOCITY_SIGNAL_SIZE = 3 * OBSTACLE_COUNT  # u of each reading, nearest first
 
@@ -149,50 +151,89 @@ class ObstacleVelocityEstimator(LeafSystem):
         output.SetFromVector(u.ravel())
 
 
-class RelativeReadings(LeafSystem):
-    """One navigator input pair per reading: the reading alone, and the state
-    with the velocity relative to that reading's obstacle.
+class RelativeNavigator(LeafSystem):
+    """An obstacle navigator's field summed over the readings, each reading's
+    term computed alone with the velocity relative to its obstacle, v − u_i,
+    and with `own_pace` given the pace of the field computed with v itself
+    (`maths.motion.keep_own_pace`, for the force and each of its terms).
 
     .. pydrake_system::
 
-        name: RelativeReadings
+        name: RelativeNavigator
         input_ports:
         - state
         - obstacle
         - obstacle_velocity
         output_ports:
-        - state_0
-        - obstacle_0
-        - ...
+        - obstacle_force
+        - obstacle_force_terms
 
-    "state_i": the state with v − u_i; "obstacle_i": reading i as the only
-    reading ("nothing seen" when reading i is not).
+    `navigator`: an `ObstacleNavigator`, whose field, parameters, goal and
+    collision radius it copies; its force must be the sum of its readings'.
+    One system rather than a navigator per reading and adders: the same sums
+    in the same order, with a fifth of the ports to evaluate.
     """
 
-    def __init__(self):
+    def __init__(self, navigator, own_pace: bool, blend_speed: float):
         super().__init__()
-        state = self.DeclareVectorInputPort("state", STATE_SIZE)
-        obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
-        velocity = self.DeclareVectorInputPort(
+        self._field = navigator.field
+        self._params = copy.deepcopy(navigator.params)
+        self._goal = np.array(navigator.goal, dtype=float)
+        self._radius = float(navigator.collision_radius)
+        self._own_pace = bool(own_pace)
+        self._blend = float(blend_speed)
+        self._last = LastResult()
+        self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+        self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
+        self._velocity = self.DeclareVectorInputPort(
             "obstacle_velocity", VELOCITY_SIGNAL_SIZE
         )
+        tickets = {port.ticket() for port in (self._state, self._obstacle)}
+        tickets.add(self._velocity.ticket())
+        for k, (name, size) in enumerate(
+            (("obstacle_force", 3), ("obstacle_force_terms", 6))
+        ):
+            self.DeclareVectorOutputPort(
+                name,
+                size,
+                lambda context, out, k=k: out.SetFromVector(self._forces(context)[k]),
+                prerequisites_of_calc=tickets,
+            )
+
+    def _forces(self, context):
+        """(F_o, its terms [A, B]), computed once for both outputs."""
+        x = self._state.Eval(context)
+        obstacle = self._obstacle.Eval(context)
+        u = self._velocity.Eval(context)
+        key = x.tobytes() + obstacle.tobytes() + u.tobytes()
+        return self._last(key, self._forces_of, x, obstacle, u)
+
+    def _terms(self, x, obstacle):
+        p, v = position_velocity(x)
+        A, B = fields.superposed(
+            self._field, v, obstacle, self._goal - p, self._radius, self._params
+        )
+        return A + B, np.concatenate([A, B])
+
+    def _forces_of(self, x, obstacle, u):
+        force, terms = np.zeros(3), np.zeros(6)
         for i in range(OBSTACLE_COUNT):
-            self.DeclareVectorOutputPort(
-                f"state_{i}",
-                STATE_SIZE,
-                lambda context, out, i=i: out.SetFromVector(
-                    _relative(state.Eval(context), velocity.Eval(context), i)
-                ),
-                prerequisites_of_calc={state.ticket(), velocity.ticket()},
-            )
-            self.DeclareVectorOutputPort(
-                f"obstacle_{i}",
-                OBSTACLE_SIGNAL_SIZE,
-                lambda context, out, i=i: out.SetFromVector(
-                    _alone(obstacle.Eval(context), i)
-                ),
-                prerequisites_of_calc={obstacle.ticket()},
-            )
+            F_i, terms_i = self._terms(_relative(x, u, i), _alone(obstacle, i))
+            force, terms = force + F_i, terms + terms_i
+        if not self._own_pace:
+            return force, terms
+        own_force, own_terms = self._terms(x, obstacle)
+        v = x[VELOCITY]
+        return self._paced(force, own_force, v), self._paced(terms, own_terms, v)
+
+    def _paced(self, relative, own, v):
+        """Each 3-vector of `relative` with the pace of `own`'s."""
+        return np.concatenate(
+            [
+                keep_own_pace(relative[k : k + 3], own[k : k + 3], v, self._blend)
+                for k in range(0, len(relative), 3)
+            ]
+        )
 
 
 def _relative(x: np.ndarray, u: np.ndarray, i: int) -> np.ndarray:
@@ -206,103 +247,30 @@ def _alone(obstacle: np.ndarray, i: int) -> np.ndarray:
     return obstacle_signal([r_o] if seen > 0.5 else [])
 
 
-class OwnPace(LeafSystem):
-    """The relative navigators' force, steering as they do but keeping the
-    pace of the navigator flown with the vehicle's own velocity
-    (`maths.motion.keep_own_pace`), for the force and each of its two terms.
-
-    .. pydrake_system::
-
-        name: OwnPace
-        input_ports:
-        - state
-        - relative_force
-        - relative_terms
-        - own_force
-        - own_terms
-        output_ports:
-        - obstacle_force
-        - obstacle_force_terms
-    """
-
-    def __init__(self, blend_speed: float = PACE_BLEND_SPEED):
-        super().__init__()
-        self._blend = float(blend_speed)
-        state = self.DeclareVectorInputPort("state", STATE_SIZE)
-        for output, size in (("obstacle_force", 3), ("obstacle_force_terms", 6)):
-            kind = "force" if size == 3 else "terms"
-            relative = self.DeclareVectorInputPort(f"relative_{kind}", size)
-            own = self.DeclareVectorInputPort(f"own_{kind}", size)
-            self.DeclareVectorOutputPort(
-                output,
-                size,
-                lambda context, out, relative=relative, own=own: out.SetFromVector(
-                    self._paced(
-                        state.Eval(context), relative.Eval(context), own.Eval(context)
-                    )
-                ),
-                prerequisites_of_calc={state.ticket(), relative.ticket(), own.ticket()},
-            )
-
-    def _paced(self, x, relative, own):
-        """Each 3-vector of `relative` with the pace of `own`'s."""
-        v = x[VELOCITY]
-        return np.concatenate(
-            [
-                keep_own_pace(relative[k : k + 3], own[k : k + 3], v, self._blend)
-                for k in range(0, len(relative), 3)
-            ]
-        )
-
-
 def relative_navigator(
     make_navigator: Callable[[], LeafSystem], estimate: RelativeVelocity, rate_hz: float
 ) -> Diagram:
-    """A navigator that sums `make_navigator()`'s fields over the readings,
+    """A navigator that sums `make_navigator()`'s field over the readings,
     each with the velocity relative to its obstacle, estimated from readings
     sampled at `rate_hz` (see the module docstring), and with
-    `estimate.own_pace` keeps the pace of `make_navigator()` flown with the
-    vehicle's own velocity (`OwnPace`). The navigator must be one whose force
-    is the sum of its readings' (`ObstacleNavigator`)."""
+    `estimate.own_pace` keeps the pace of that field computed with the
+    vehicle's own velocity. `make_navigator()` must be an
+    `ObstacleNavigator`, whose force is the sum of its readings'."""
     builder = DiagramBuilder()
     estimator = builder.AddNamedSystem(
         "velocity_estimator",
         ObstacleVelocityEstimator(rate_hz, estimate.time_constant, estimate.gate),
     )
-    split = builder.AddNamedSystem("readings", RelativeReadings())
+    navigator = builder.AddNamedSystem(
+        "relative_navigator",
+        RelativeNavigator(make_navigator(), estimate.own_pace, PACE_BLEND_SPEED),
+    )
     for name in ("state", "obstacle"):
         builder.ExportInput(estimator.GetInputPort(name), name)
-        builder.ConnectInput(name, split.GetInputPort(name))
-    builder.Connect(
-        estimator.GetOutputPort("obstacle_velocity"),
-        split.GetInputPort("obstacle_velocity"),
-    )
-    pace = None
-    if estimate.own_pace:
-        pace = builder.AddNamedSystem("own_pace", OwnPace())
-        own = builder.AddNamedSystem("navigator_own", make_navigator())
-        for name in ("state", "obstacle"):
-            builder.ConnectInput(name, own.GetInputPort(name))
-        builder.ConnectInput("state", pace.GetInputPort("state"))
-    for output, size in (("obstacle_force", 3), ("obstacle_force_terms", 6)):
-        adder = builder.AddNamedSystem(f"{output}_sum", Adder(OBSTACLE_COUNT, size))
-        if pace is None:
-            builder.ExportOutput(adder.get_output_port(), output)
-            continue
-        kind = "force" if size == 3 else "terms"
-        builder.Connect(adder.get_output_port(), pace.GetInputPort(f"relative_{kind}"))
-        builder.Connect(own.GetOutputPort(output), pace.GetInputPort(f"own_{kind}"))
-        builder.ExportOutput(pace.GetOutputPort(output), output)
-    for i in range(OBSTACLE_COUNT):
-        navigator = builder.AddNamedSystem(f"navigator_{i}", make_navigator())
-        for name in ("state", "obstacle"):
-            builder.Connect(
-                split.GetOutputPort(f"{name}_{i}"), navigator.GetInputPort(name)
-            )
-        for output in ("obstacle_force", "obstacle_force_terms"):
-            adder = builder.GetSubsystemByName(f"{output}_sum")
-            builder.Connect(navigator.GetOutputPort(output), adder.get_input_port(i))
-    builder.ExportOutput(
-        estimator.GetOutputPort("obstacle_velocity"), "obstacle_velocity"
-    )
+        builder.ConnectInput(name, navigator.GetInputPort(name))
+    velocity = estimator.GetOutputPort("obstacle_velocity")
+    builder.Connect(velocity, navigator.GetInputPort("obstacle_velocity"))
+    for name in ("obstacle_force", "obstacle_force_terms"):
+        builder.ExportOutput(navigator.GetOutputPort(name), name)
+    builder.ExportOutput(velocity, "obstacle_velocity")
     return builder.Build()
