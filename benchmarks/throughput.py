@@ -2,7 +2,7 @@
 diagram, where a sweep flight's time goes, and sweep flights per minute.
 
     python benchmarks/throughput.py [--repeats 7] [--duration S] [--split 8]
-        [--fields 40] [--seed S] [--page docs/performance.md]
+        [--fields 40] [--compare 20] [--seed S] [--page docs/performance.md]
 
 Prints, all measured in this run (the machine's load average with each):
 
@@ -25,6 +25,10 @@ Prints, all measured in this run (the machine's load average with each):
    fields (a seed no earlier run used) at the default density, on a local
    cluster of 1 and then 2 worker processes, the cluster's start-up and
    shutdown included.
+4. CPU per flight of each method (mfi, mfi-paper, apf, gf) on the same
+   --compare fresh fields at the default density, flown in turn in this
+   process until settled, as a sweep flies them; steps and µs per step,
+   and each method's CPU over GF's.
 
 With --page, the printed text is also written into that page between the
 lines `<!-- BEGIN throughput -->` and `<!-- END throughput -->`, with the
@@ -207,6 +211,38 @@ def split(fields: int, seed: int, say) -> dict[str, float]:
     return {piece: totals[piece] / fields for piece in PIECES}
 
 
+COMPARED = ("mfi", "mfi-paper", "apf", "gf")
+
+
+def by_method(fields: int, seed: int, say) -> dict[str, float]:
+    """Part 4: CPU per flight of each method on the same fields (in this
+    process, each field's methods flown in turn, until settled)."""
+    cpu = dict.fromkeys(COMPARED, 0.0)
+    steps = dict.fromkeys(COMPARED, 0)
+    with tempfile.TemporaryDirectory() as out:
+        for index in range(fields):
+            scenario = generator.random_field(
+                seed, index, generator.DEFAULT_DENSITY, out
+            )
+            for method in COMPARED:
+                flight = fly(build_diagram(scenario, method), until_settled=True)
+                cpu[method] += flight.cpu_time
+                steps[method] += flight.integrator_steps
+    say(
+        f"4. CPU per flight by method, the same {fields} fresh fields at density "
+        f"{generator.DEFAULT_DENSITY:g} (seed {seed}), flown in turn until "
+        f"settled ({load()}):"
+    )
+    for method in COMPARED:
+        say(
+            f"   {method:10s} {1e3 * cpu[method] / fields:7.1f} ms  "
+            f"{steps[method] / fields:6.0f} steps  "
+            f"{1e6 * cpu[method] / steps[method]:6.1f} us/step  "
+            f"x{cpu[method] / cpu['gf']:.2f} GF's"
+        )
+    return {method: cpu[method] / fields for method in COMPARED}
+
+
 def one_sweep(workers: int, fields: int, seed: int) -> None:
     """One MFI sweep on a local cluster (what `--one-sweep` runs in a
     process of its own)."""
@@ -268,6 +304,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--duration", type=float, help="override the duration [s]")
     parser.add_argument("--split", type=int, default=8, help="fields of part 2")
     parser.add_argument("--fields", type=int, default=40, help="fields per sweep")
+    parser.add_argument("--compare", type=int, default=20, help="fields of part 4")
     parser.add_argument(
         "--seed", type=int, help="first seed of the fresh fields (default: the time)"
     )
@@ -279,7 +316,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.one_sweep:
         one_sweep(*args.one_sweep)
         return {}
-    for name in ("repeats", "split", "fields"):
+    for name in ("repeats", "split", "fields", "compare"):
         if getattr(args, name) < 1:
             parser.error(f"--{name} = {getattr(args, name)}: must be >= 1")
     scenario = load_scenario(args.scenario)
@@ -299,6 +336,7 @@ def main(argv: list[str] | None = None) -> dict:
     result = against_cpp(scenario, args.repeats, say)
     result["split"] = split(args.split, seed, say)
     result["rates"] = sweeps(args.fields, seed + 1, say)
+    result["methods"] = by_method(args.compare, seed + 3, say)
     if args.page:
         write_section(args.page, "throughput", "```\n" + "\n".join(lines) + "\n```")
     return result

@@ -21,9 +21,16 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     page = tmp_path / "performance.md"
     page.write_text("# P\n<!-- BEGIN throughput -->\nold\n<!-- END throughput -->\n")
     argv = ["--duration", "2.0", "--repeats", "1", "--split", "1", "--fields", "2"]
+    argv += ["--compare", "1"]
     result = load_benchmark().main(argv + ["--page", str(page)])
     out = capsys.readouterr().out
     for text in ("MFI (Python", "C++ QuadrotorPlant + LQR", "ratio", "flights/min"):
+        assert text in out
+    # Part 4: every compared method, and GF's ratio to itself is 1.
+    assert set(result["methods"]) == {"mfi", "mfi-paper", "apf", "gf"}
+    assert all(cpu > 0.0 for cpu in result["methods"].values())
+    assert "x1.00 GF's" in out
+    for text in ("4. CPU per flight by method",):
         assert text in out
     mfi, lqr = result["mfi"], result["lqr"]
     assert mfi.sim_time == pytest.approx(2.0)
