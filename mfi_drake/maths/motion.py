@@ -21,7 +21,11 @@ obstacle's normal velocity, exactly zero for a flat face and O(h) for a
 curved static surface.
 """
 
+import math
+
 import numpy as np
+
+from mfi_drake.maths.so3 import dot, entries, norm
 
 
 def displacement(velocity, amplitude, angular_frequency, phase, t) -> np.ndarray:
@@ -43,20 +47,24 @@ def displacement_rate(velocity, amplitude, angular_frequency, phase, t) -> np.nd
 
 def match_points(points: np.ndarray, before: np.ndarray, gate: float) -> list:
     """For each row of `points` (k, 3), the index of the row of `before`
-    (m, 3) it continues, or None: pairs are taken nearest first, each row
-    of either side at most once, and only closer than `gate`."""
-    if len(points) == 0 or len(before) == 0:
-        return [None] * len(points)
-    distances = np.linalg.norm(points[:, None, :] - before[None, :, :], axis=2)
-    matched: list = [None] * len(points)
+    (m, 3) it continues, or None: pairs are taken nearest first (ties in
+    row-major order), each row of either side at most once, and only closer
+    than `gate`."""
+    # On Python floats: k, m ≤ 3, and numpy on such tiny arrays costs more
+    # than the arithmetic (this runs at every evaluation among moving
+    # obstacles).
+    new, old = points.tolist(), before.tolist()
+    pairs = sorted(
+        (math.dist(p, q), i, j) for i, p in enumerate(new) for j, q in enumerate(old)
+    )
+    matched: list = [None] * len(new)
     taken = set()
-    for flat in np.argsort(distances, axis=None):
-        i, j = np.unravel_index(flat, distances.shape)
-        if distances[i, j] >= gate:
+    for distance, i, j in pairs:
+        if distance >= gate:
             break
         if matched[i] is None and j not in taken:
-            matched[i] = int(j)
-            taken.add(int(j))
+            matched[i] = j
+            taken.add(j)
     return matched
 
 
@@ -70,11 +78,12 @@ def normal_velocity(r_o: np.ndarray, moved: np.ndarray, h: float) -> np.ndarray:
 def along_normal(r_o: np.ndarray, u: np.ndarray) -> np.ndarray:
     """u's component along the normal n = r_o/|r_o| (zero where r_o = 0: at
     the surface there is no normal to take)."""
-    distance = np.linalg.norm(r_o)
+    distance = norm(r_o)
     if distance == 0.0:
         return np.zeros(3)
-    n = r_o / distance
-    return n * (n @ u)
+    n = [x / distance for x in entries(r_o)]
+    along = dot(n, u)
+    return np.array([x * along for x in n])
 
 
 PACE_BLEND_SPEED = 0.3  # m/s, below which `keep_own_pace` fades to `own`
@@ -89,9 +98,11 @@ def keep_own_pace(
     as the relative field does and speeds up or brakes as the own one does.
     Below `blend_speed` it fades linearly to `own`: a vehicle holding a
     point (at rest v gives no direction) is flown as in a static scene."""
-    speed = float(np.linalg.norm(v))
+    speed = norm(v)
     if speed == 0.0:
         return own
-    along = v / speed
-    paced = relative - ((relative - own) @ along) * along
-    return own + min(1.0, speed / blend_speed) * (paced - own)
+    along = [x / speed for x in entries(v)]
+    r, o = entries(relative), entries(own)
+    k = dot([r[i] - o[i] for i in range(3)], along)
+    w = min(1.0, speed / blend_speed)
+    return np.array([o[i] + w * (r[i] - k * along[i] - o[i]) for i in range(3)])
