@@ -190,11 +190,17 @@ def test_goal_attraction_is_finite_and_does_no_work(smooth, config, K_omega):
 
 @VARIANTS
 @FAST
-@given(configurations(), vectors, st.sampled_from([fields.MODE_PD, fields.MODE_CRUISE]))
-def test_goal_terms_and_guards_are_finite(params, config, p, mode):
+@given(
+    configurations(),
+    vectors,
+    st.sampled_from([fields.MODE_PD, fields.MODE_CRUISE]),
+    vectors,
+)
+def test_goal_terms_and_guards_are_finite(params, config, p, mode, F_o):
     v, _, r_g = config
     goal = p + r_g
-    F_gc, F_v, F_pd = fields.goal_terms(mode, p, v, goal, params)
+    mass = VEHICLES["drake_default"].mass  # repair (g)'s lag drag needs it
+    F_gc, F_v, F_pd = fields.goal_terms(mode, p, v, goal, params, F_o=F_o, mass=mass)
     assert_finite(F_gc, F_v, F_pd)
     assert np.linalg.norm(F_pd) <= P.max_pd_force * (1 + 1e-12)
     assert np.linalg.norm(np.cross(F_v, v)) <= 1e-9 * max(

@@ -1,4 +1,4 @@
-"""The repairs of MFI's field (NavigatorParams (a)–(f)), each against the
+"""The repairs of MFI's field (NavigatorParams (a)–(g)), each against the
 paper's literal form on a hand-built configuration, and the symmetric
 two-sphere layout that made the paper's form chatter."""
 
@@ -13,6 +13,7 @@ from mfi_drake.config.scenario import Obstacle, Scenario, Sphere
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.maths import fields
 from mfi_drake.maths.layout import obstacle_signal
+from mfi_drake.systems.navigation import GoalAttractionSelector
 
 R = VEHICLES["drake_default"].collision_radius
 # The cases below were measured with the gains before tuning (r_l = 1.5 m).
@@ -145,6 +146,87 @@ def test_f_boundary_following_vanishes_continuously_at_its_range():
         F_out, _ = fields.obstacle_field(v, outside, 1.0, 10.0 * EX, R, p)
         assert np.allclose(F_out, 0.0)
         assert (np.linalg.norm(F_in) > jump) == (p is PAPER)
+
+
+def test_g_lag_drag_by_hand():
+    """Eq 19 with repair (g), heading straight at the goal (F_gc = 0, |v| =
+    v_d, so eq 19 alone is 0) under F_o = 3 N across v, by hand:
+    τ = 2ζ/ω_n = 2·0.9/15 = 0.12 s, τω = τ|F⊥|/(m v) = 0.36/0.775 =
+    0.4645161, (τω)² = 0.2157752, D = m v/τ · (τω)²/(1 + 2(τω)²) =
+    6.4583333 · 0.2157752/1.4315505 = 0.9734539 N."""
+    params = only(lag_drag=True)
+    mass = VEHICLES["drake_default"].mass
+    assert mass == 0.775 and fields.attitude_lag(params) == pytest.approx(0.12)
+    p, v, goal = np.zeros(3), EX, 10.0 * EX
+    F_o = 3.0 * EY
+    cruise = fields.MODE_CRUISE
+    F_gc, F_v, _ = fields.goal_terms(cruise, p, v, goal, params, F_o=F_o, mass=mass)
+    np.testing.assert_allclose(F_gc, 0.0, atol=1e-15)
+    np.testing.assert_allclose(F_v, [-0.9734539, 0.0, 0.0], atol=1e-7)
+    # The paper's form, and (g) without F_o or the mass: eq 19 alone.
+    for params_, F_o_, mass_ in [(PAPER, F_o, mass), (params, None, mass)]:
+        _, F_v, _ = fields.goal_terms(cruise, p, v, goal, params_, F_o=F_o_, mass=mass_)
+        np.testing.assert_allclose(F_v, 0.0, atol=1e-15)
+    _, F_v, _ = fields.goal_terms(cruise, p, v, goal, params, F_o=F_o)
+    np.testing.assert_allclose(F_v, 0.0, atol=1e-15)
+    # A straight cruise (nothing turns the vehicle): no drag, eq 19's v_d.
+    _, F_v, _ = fields.goal_terms(
+        cruise, p, 0.7 * EX, goal, params, F_o=np.zeros(3), mass=mass
+    )
+    np.testing.assert_allclose(F_v, [params.K_v * 0.3, 0.0, 0.0], atol=1e-15)
+    # The turning force is F_o + F_gc: a goal turn that cancels F_o, none.
+    v = np.array([0.8, 0.6, 0.0])
+    F_gc, F_v_alone, _ = fields.goal_terms(cruise, p, v, goal, PAPER)
+    _, F_v, _ = fields.goal_terms(cruise, p, v, goal, params, F_o=-F_gc, mass=mass)
+    np.testing.assert_allclose(F_v, F_v_alone, atol=1e-12)
+
+
+def test_g_lag_drag_keeps_a_late_force_from_doing_work():
+    """The command F⊥ − D l_a is ⟂ to the velocity τ later, v + τ(F⊥ − D
+    l_a)/m, up to O((τω)⁴) (first order), while F⊥ itself does the work
+    τ|F⊥|²/m; the drag never exceeds m v/(2τ)."""
+    mass, tau = 0.775, 0.12
+    v = np.array([1.2, 0.0, 0.3])
+    l_a = v / np.linalg.norm(v)
+    across = np.cross(l_a, EY)
+    for size in (0.05, 0.2, 0.5):
+        F_perp = size * across
+        D = fields.lag_drag(v, F_perp, tau, mass)
+        later = lambda F: v + tau * F / mass  # noqa: E731
+        command = F_perp - D * l_a
+        omega_tau = tau * size / (mass * np.linalg.norm(v))
+        work = abs(command @ later(command))
+        assert work < 4.0 * omega_tau**4 * mass * (v @ v) / tau
+        assert F_perp @ later(F_perp) == pytest.approx(tau * size**2 / mass)
+    for size in (1.0, 10.0, 1e3, 1e6):
+        D = fields.lag_drag(v, size * across, tau, mass)
+        assert 0.0 < D <= mass * np.linalg.norm(v) / (2.0 * tau)
+    assert fields.lag_drag(np.zeros(3), across, tau, mass) == 0.0
+
+
+def test_g_the_selector_brakes_with_the_vehicle_mass_and_F_o():
+    """The selector hands its F_o input and the mass the flight diagram gives
+    it (`set_mass`) to eq 19; its AutoDiffXd copy keeps the mass."""
+    params = dataclasses.replace(REPAIRED, lag_drag=True)
+    goal, x = 10.0 * EX, np.zeros(12)
+    x[6:9] = [1.0, 0.2, 0.0]
+    F_o = np.array([0.0, 3.0, 0.0])
+    selector = GoalAttractionSelector(params, goal, fields.MODE_CRUISE)
+    selector.set_mass(0.775)
+    context = selector.CreateDefaultContext()
+    selector.GetInputPort("state").FixValue(context, x)
+    selector.GetInputPort("obstacle_force").FixValue(context, F_o)
+    terms = selector.GetOutputPort("goal_force_terms").Eval(context)
+    F_gc, F_v, _ = fields.goal_terms(
+        fields.MODE_CRUISE, x[:3], x[6:9], goal, params, F_o=F_o, mass=0.775
+    )
+    np.testing.assert_allclose(terms, np.concatenate([F_gc, F_v, np.zeros(3)]))
+    _, F_v_eq19, _ = fields.goal_terms(fields.MODE_CRUISE, x[:3], x[6:9], goal, PAPER)
+    assert (F_v - F_v_eq19) @ x[6:9] < -0.5  # it brakes
+    np.testing.assert_allclose(
+        selector.GetOutputPort("navigation_force").Eval(context), F_o + F_gc + F_v
+    )
+    assert selector.ToAutoDiffXd().mass == 0.775
 
 
 @pytest.mark.parametrize("offset", [1e-9, -1e-9, 0.0])

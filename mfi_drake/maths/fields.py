@@ -405,11 +405,54 @@ def pd_guard(p: np.ndarray, v: np.ndarray, goal: np.ndarray, params):
     return min(norm(v) - params.v_stop, _distance_to_goal(p, goal) - params.r_gl)
 
 
+def _lag_drag(speed, F_perp_sq, lag: float, mass: float):
+    # a = τ|F⊥|/m, so τω = a/v; D = (m/τ) v a² / (v² + 2a²), finite for v > 0.
+    a_sq = F_perp_sq * (lag / mass) ** 2
+    return (mass / lag) * speed * a_sq / (speed * speed + 2.0 * a_sq)
+
+
+def lag_drag(v: np.ndarray, F_perp: np.ndarray, lag: float, mass: float):
+    """Repair (g): the drag D ≥ 0 [N] that eq 19 adds along −l_a while the
+    vehicle turns under the force F_perp (⟂ v) that the attitude loop realises
+    `lag` seconds late.
+
+    Realised late, a force ⟂ v is no longer ⟂ to the velocity that has turned
+    meanwhile: it does the work τ|F⊥|²/m per second and speeds the vehicle up
+    (v turns at ω = |F⊥|/(m v)). A command F⊥ − D l_a stays ⟂ to the velocity
+    τ later, v + τ(F⊥ − D l_a)/m, when D v = τ(|F⊥|² + D²)/m, i.e. to first
+    order in τω: D = τ|F⊥|²/(m v). The drag used, D = m v/τ · (τω)² /
+    (1 + 2(τω)²), is that to first order and smoothly bounded by m v/(2τ),
+    the exact solution's value at the largest turn rate it allows (τω = 1/2).
+    Zero when F⊥ = 0 and at rest."""
+    v, F_perp = entries(v), entries(F_perp)
+    speed = norm(v)
+    if speed < TINY:
+        return 0.0 * speed
+    return _lag_drag(speed, dot(F_perp, F_perp), lag, mass)
+
+
+def attitude_lag(params) -> float:
+    """The lag τ = 2ζ/ω_n [s] with which eq 25's attitude loops (natural
+    frequency ω_n, damping ζ) follow a steadily turning setpoint."""
+    return 2.0 * params.attitude_damping_ratio / params.attitude_natural_frequency
+
+
 def goal_terms(
-    mode: int, p: np.ndarray, v: np.ndarray, goal: np.ndarray, params
+    mode: int,
+    p: np.ndarray,
+    v: np.ndarray,
+    goal: np.ndarray,
+    params,
+    F_o=None,
+    mass=None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The goal part of eq 21 for `mode`, as (F_gc, F_v, F_pd); the inactive
-    terms are zero."""
+    terms are zero.
+
+    With repair (g) (`params.lag_drag`), the obstacle force F_o and the
+    vehicle's `mass` given, F_v also holds `lag_drag`'s −D l_a for the
+    turning force F_o + F_gc; without them (F_o None or mass None) F_v is
+    eq 19 alone."""
     zero = _zero3(v)
     if mode == MODE_CRUISE:
         v = entries(v)
@@ -420,5 +463,16 @@ def goal_terms(
             v, speed, l_a, r_g, params.K_omega, params.smooth_goal_turn
         )
         F_v = _speed_control(speed, l_a, params.K_v, params.v_d)
+        lagging = getattr(params, "lag_drag", False) and F_o is not None
+        if lagging and mass is not None and speed > TINY:
+            # Repair (g): F⊥ = F_o + F_gc, the turning part of eq 21's F_n.
+            F_o = entries(F_o)
+            F = (F_o[0] + F_gc[0], F_o[1] + F_gc[1], F_o[2] + F_gc[2])
+            along = dot(F, l_a)
+            F_perp_sq = dot(F, F) - along * along
+            if F_perp_sq < 0.0:  # rounding
+                F_perp_sq = 0.0 * F_perp_sq
+            D = _lag_drag(speed, F_perp_sq, attitude_lag(params), mass)
+            F_v = (F_v[0] - D * l_a[0], F_v[1] - D * l_a[1], F_v[2] - D * l_a[2])
         return np.array(F_gc), np.array(F_v), zero
     return zero, zero, terminal_pd_field(p, v, goal, params)

@@ -160,7 +160,11 @@ def GoalAttractionSelector_(T):
         """Goal attraction and the mode switch of eq 21: F_n from F_o.
 
         Cruise: F_n = F_o + F_gc + F_v (eq 16–19); PD: F_n = F_o + F_pd
-        (eq 20). With `mode=None` the mode is a discrete state, set at
+        (eq 20). With repair (g) F_v also holds the drag of the turning
+        force F_o + F_gc (`fields.lag_drag`), given the vehicle's mass
+        (`set_mass`; the flight diagram sets it).
+
+        With `mode=None` the mode is a discrete state, set at
         initialization from the initial state and switched by witness
         functions (cruise_guard / pd_guard crossing zero), so the integrator
         localises each switch instead of stepping over a jump. A fixed
@@ -182,15 +186,18 @@ def GoalAttractionSelector_(T):
         "goal_force_terms": [F_gc, F_v, F_pd] (9); "mode": eq 21's mode (1).
         """
 
-        def _construct(self, params, goal, mode=None, converter=None):
+        def _construct(self, params, goal, mode=None, mass=None, converter=None):
             LeafSystem_[T].__init__(self, converter)
             self.params = copy.deepcopy(params)
             self.goal = np.array(goal, dtype=float)
             self.fixed_mode = mode
+            self.mass = None if mass is None else float(mass)
             self._last = LastResult(enabled=T is float)
             self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
             self._obstacle_force = self.DeclareVectorInputPort("obstacle_force", 3)
             tickets = {self._state.ticket()}
+            if self.params.lag_drag:  # repair (g): F_v depends on F_o
+                tickets.add(self._obstacle_force.ticket())
             if mode is None:
                 self._mode_index = self.DeclareDiscreteState(1)
                 tickets.add(self.discrete_state_ticket(self._mode_index))
@@ -239,8 +246,19 @@ def GoalAttractionSelector_(T):
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(
-                self, other.params, other.goal, other.fixed_mode, converter=converter
+                self,
+                other.params,
+                other.goal,
+                other.fixed_mode,
+                other.mass,
+                converter=converter,
             )
+
+        def set_mass(self, mass: float) -> None:
+            """The vehicle's mass [kg], for repair (g)'s lag drag (without it,
+            as in the analysis diagrams, the drag is off). Call it before
+            the diagram is built."""
+            self.mass = float(mass)
 
         def mode(self, context) -> int:
             if self.fixed_mode is not None:
@@ -290,19 +308,31 @@ def GoalAttractionSelector_(T):
                 return []
             return [self._witness[self.mode(context)]]
 
-        def _terms(self, context):
-            """(F_gc, F_v, F_pd), computed once for both outputs."""
+        def _terms(self, context, F_o=None):
+            """(F_gc, F_v, F_pd), computed once for both outputs; F_o, the
+            "obstacle_force" input, is read only where repair (g) needs it."""
             x = self._state.Eval(context)
             mode = self.mode(context)
+            if (
+                mode == fields.MODE_CRUISE
+                and self.params.lag_drag
+                and self.mass is not None
+            ):
+                if F_o is None:
+                    F_o = self._obstacle_force.Eval(context)
+                key = (mode, x.tobytes(), F_o.tobytes())
+                return self._last(key, self._goal_terms, mode, x, F_o)
             return self._last((mode, x.tobytes()), self._goal_terms, mode, x)
 
-        def _goal_terms(self, mode, x):
+        def _goal_terms(self, mode, x, F_o=None):
             p, v = position_velocity(x)
-            return fields.goal_terms(mode, p, v, self.goal, self.params)
+            return fields.goal_terms(
+                mode, p, v, self.goal, self.params, F_o=F_o, mass=self.mass
+            )
 
         def _calc_force(self, context, output):
-            F_gc, F_v, F_pd = self._terms(context)
             F_o = self._obstacle_force.Eval(context)
+            F_gc, F_v, F_pd = self._terms(context, F_o)
             output.SetFromVector(F_o + F_gc + F_v + F_pd)
 
     return Impl
