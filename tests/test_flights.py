@@ -6,6 +6,7 @@ import os
 
 import numpy as np
 import pytest
+from pydrake.systems.analysis import Simulator
 
 from mfi_drake.app.cli import main
 from mfi_drake.config.scenario import (
@@ -19,6 +20,7 @@ from mfi_drake.config.scenario import (
 )
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import fields
+from mfi_drake.systems.navigation import GoalAttractionSelector
 from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
@@ -121,3 +123,31 @@ def test_run_command_writes_log_and_figure_and_prints_the_json(tmp_path, capsys)
     png = (out / "trajectory.png").read_bytes()
     assert png.startswith(b"\x89PNG") and len(png) > 20_000
     assert not [f for f in os.listdir(out) if f.startswith(".tmp")]
+
+
+def test_eq21_switches_when_the_state_it_reads_jumps_across_a_guard():
+    """A sampled state estimate jumps between steps, where no witness can see
+    a crossing: the mode follows eq 21 from the next step on all the same
+    (it once stayed in PD at 4.9 m/s: the PD pull is saturated, not
+    damped, far from the goal)."""
+    goal = [10.0, 0.0, 2.0]
+    selector = GoalAttractionSelector(Scenario().navigator, goal)
+    simulator = Simulator(selector)
+    context = simulator.get_mutable_context()
+    context.SetAccuracy(1e-2)
+    x = np.zeros(12)
+    x[:3] = [0.0, 0.0, 2.0]
+    state = selector.GetInputPort("state")
+    state.FixValue(context, x)
+    selector.GetInputPort("obstacle_force").FixValue(context, np.zeros(3))
+    simulator.Initialize()
+    mode = selector.GetOutputPort("mode")
+    assert mode.Eval(context)[0] == fields.MODE_PD  # at rest
+    x[6] = 1.0  # the estimate jumps to 1 m/s: eq 21 leaves PD
+    state.FixValue(context, x)
+    simulator.AdvanceTo(0.1)
+    assert mode.Eval(context)[0] == fields.MODE_CRUISE
+    x[6] = 0.0  # and back to rest: cruise falls back to PD
+    state.FixValue(context, x)
+    simulator.AdvanceTo(0.2)
+    assert mode.Eval(context)[0] == fields.MODE_PD

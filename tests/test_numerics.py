@@ -10,12 +10,20 @@ subnormals and signed zeros included; the singular cases are constructed on
 purpose, since uniform random floats would almost never hit them.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from mfi_drake.config.parameters import ApfParams, GfParams, NavigatorParams, paper_form
+from mfi_drake.config.parameters import (
+    REPAIRS,
+    ApfParams,
+    GfParams,
+    NavigatorParams,
+    paper_form,
+)
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.maths import baselines, fields, so3
 from mfi_drake.maths.faults import corrupt_reading, rotor_lag_rate, sample_rng
@@ -30,9 +38,12 @@ from mfi_drake.maths.quadcopter import (
 )
 
 P = NavigatorParams()
-# Every variant of MFI: the default (every repair on) and the paper's form.
+# Variants of MFI: the default, every repair on (those off by default
+# included), and the paper's form (every repair off).
 VARIANTS = pytest.mark.parametrize(
-    "params", [P, paper_form(P)], ids=["repaired", "paper"]
+    "params",
+    [P, dataclasses.replace(P, **dict.fromkeys(REPAIRS, True)), paper_form(P)],
+    ids=["default", "every_repair", "paper"],
 )
 P_YAW = NavigatorParams(yaw_follows_motion=True)
 APF = ApfParams()

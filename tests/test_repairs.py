@@ -205,14 +205,14 @@ def test_g_lag_drag_keeps_a_late_force_from_doing_work():
 
 
 def test_g_the_selector_brakes_with_the_vehicle_mass_and_F_o():
-    """The selector hands its F_o input and the mass the flight diagram gives
-    it (`set_mass`) to eq 19; its AutoDiffXd copy keeps the mass."""
+    """The selector hands its F_o input and the mass it was built with (the
+    registry's MFI methods pass the vehicle's) to eq 19; its AutoDiffXd
+    copy keeps the mass."""
     params = dataclasses.replace(REPAIRED, lag_drag=True)
     goal, x = 10.0 * EX, np.zeros(12)
     x[6:9] = [1.0, 0.2, 0.0]
     F_o = np.array([0.0, 3.0, 0.0])
-    selector = GoalAttractionSelector(params, goal, fields.MODE_CRUISE)
-    selector.set_mass(0.775)
+    selector = GoalAttractionSelector(params, goal, fields.MODE_CRUISE, mass=0.775)
     context = selector.CreateDefaultContext()
     selector.GetInputPort("state").FixValue(context, x)
     selector.GetInputPort("obstacle_force").FixValue(context, F_o)
@@ -227,6 +227,27 @@ def test_g_the_selector_brakes_with_the_vehicle_mass_and_F_o():
         selector.GetOutputPort("navigation_force").Eval(context), F_o + F_gc + F_v
     )
     assert selector.ToAutoDiffXd().mass == 0.775
+
+
+def test_h_eq12_weighs_an_approached_obstacle_by_how_nearly_ahead_it_is():
+    """Approaching at l_a·n = 0.45, halfway up (h)'s ramp from 0.3 to 0.6:
+    half of (a)'s eq 12; at 0.2 none, at 0.7 all of it; receding, (a)'s
+    rule. F_a (eq 14) is untouched."""
+    r_o = (0.5 + R) * EY
+    goal = 10.0 * EX
+    a = only(follow_blocking_only=True)
+    h = dataclasses.replace(a, follow_ahead_only=True)
+    for along, weight in ((0.45, 0.5), (0.2, 0.0), (0.7, 1.0), (-0.3, None)):
+        v = np.array([np.sqrt(1.0 - along**2), along, 0.0])  # l_a·n = along
+        F_a, B_a = fields.obstacle_field(v, r_o, 1.0, goal, R, a)
+        F_h, B_h = fields.obstacle_field(v, r_o, 1.0, goal, R, h)
+        np.testing.assert_allclose(B_h, B_a)
+        if weight is None:
+            np.testing.assert_allclose(F_h, F_a)
+        else:
+            assert np.linalg.norm(F_a) > 0.3
+            np.testing.assert_allclose(F_h, weight * F_a, atol=1e-12)
+    assert fields.blocking_weight(EX, EX, goal, ahead=True) == 1.0  # head-on
 
 
 @pytest.mark.parametrize("offset", [1e-9, -1e-9, 0.0])

@@ -34,6 +34,12 @@ class NavigatorParams:
     that lies toward the goal (n·l_g > 0, blended in over n·l_g ∈ [0, 0.1]);
     the paper's eq 12 also pulls a vehicle receding from an obstacle that is
     not in its way back toward it."""
+    follow_ahead_only: bool = False
+    """(h) With (a), an approached obstacle gets eq 12 in full only when it
+    lies nearly ahead: the weight rises from 0 to 1 as l_a·n goes from 0.3
+    to 0.6 (`fields.blocking_weight`). Eq 12's size is ∝ (l_a·n)·√(1 −
+    (l_a·n)²), largest 45° off the heading, so obstacles the vehicle merely
+    passes bent its path; eq 14 still acts on them within r_b."""
     continuous_side: bool = True
     """(b) Head-on, eq 11's current is lengthened along a tangent whose side
     turns over continuously in a thin band (`fields.artificial_current`),
@@ -119,6 +125,7 @@ REPAIRS = (
     "smooth_goal_turn",
     "tapered_range",
     "lag_drag",
+    "follow_ahead_only",
 )
 
 

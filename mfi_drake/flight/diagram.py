@@ -38,7 +38,7 @@ from mfi_drake.systems.faults import (
     add_state_estimate,
 )
 from mfi_drake.systems.motion import ObstacleMotion
-from mfi_drake.systems.navigation import GoalAttractionSelector, ObstacleNavigator
+from mfi_drake.systems.navigation import ObstacleNavigator
 from mfi_drake.systems.relative import relative_navigator
 from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
 from mfi_drake.systems.sensors import VehicleGeometry
@@ -298,10 +298,9 @@ def add_vehicle(
     navigator = builder.AddNamedSystem(
         f"navigator{suffix}", navigator_of(scenario, method, vehicle)
     )
-    goal_attraction = method.goal_attraction(scenario)
-    if isinstance(goal_attraction, GoalAttractionSelector):
-        goal_attraction.set_mass(vehicle.mass)  # repair (g)'s lag drag
-    selector = builder.AddNamedSystem(f"selector{suffix}", goal_attraction)
+    selector = builder.AddNamedSystem(
+        f"selector{suffix}", method.goal_attraction(scenario, vehicle)
+    )
     attitude = builder.AddNamedSystem(
         f"attitude_pd{suffix}", AttitudePD(vehicle, params)
     )

@@ -60,7 +60,7 @@ class Method:
     label: str  # in figures and tables
     colour: str  # a matplotlib colour
     navigator: Callable[[Scenario, Vehicle], object]  # the navigator system
-    goal_attraction: Callable[[Scenario], object]  # the goal-attraction system
+    goal_attraction: Callable[[Scenario, Vehicle], object]  # the goal attraction
     parameters: str | None = None  # the Scenario field holding its gains
     gains: tuple[Gain, ...] = ()  # its documented free gains, for `tune`
 
@@ -89,7 +89,9 @@ METHODS: dict[str, Method] = {
         navigator=lambda s, vehicle: MfiNavigator(
             s.navigator, _goal(s), vehicle.collision_radius
         ),
-        goal_attraction=lambda s: GoalAttractionSelector(s.navigator, _goal(s)),
+        goal_attraction=lambda s, vehicle: GoalAttractionSelector(
+            s.navigator, _goal(s), mass=vehicle.mass
+        ),
         parameters="navigator",
         gains=_mfi_gains("navigator"),
     ),
@@ -100,7 +102,9 @@ METHODS: dict[str, Method] = {
         navigator=lambda s, vehicle: MfiNavigator(
             s.mfi_paper, _goal(s), vehicle.collision_radius
         ),
-        goal_attraction=lambda s: GoalAttractionSelector(s.mfi_paper, _goal(s)),
+        goal_attraction=lambda s, vehicle: GoalAttractionSelector(
+            s.mfi_paper, _goal(s), mass=vehicle.mass
+        ),
         parameters="mfi_paper",
         gains=_mfi_gains("mfi_paper"),
     ),
@@ -111,7 +115,9 @@ METHODS: dict[str, Method] = {
         navigator=lambda s, vehicle: ApfNavigator(
             s.apf, _goal(s), vehicle.collision_radius
         ),
-        goal_attraction=lambda s: PotentialGoalAttraction(s.apf.attraction, _goal(s)),
+        goal_attraction=lambda s, _: PotentialGoalAttraction(
+            s.apf.attraction, _goal(s)
+        ),
         parameters="apf",
         # Khatib's η and ρ₀, and the attraction's stiffness (v_max stays 1 m/s).
         gains=(
@@ -127,7 +133,7 @@ METHODS: dict[str, Method] = {
         navigator=lambda s, vehicle: GfNavigator(
             s.gf, _goal(s), vehicle.collision_radius
         ),
-        goal_attraction=lambda s: PotentialGoalAttraction(s.gf.attraction, _goal(s)),
+        goal_attraction=lambda s, _: PotentialGoalAttraction(s.gf.attraction, _goal(s)),
         parameters="gf",
         # The gyroscopic gain and shell, the repulsion inside its safety shell
         # (ρ₀ < r_d), and the attraction's stiffness (v_max stays 1 m/s). k_g
@@ -165,7 +171,7 @@ def user_method(field: Callable, name: str) -> Method:
         label=label,
         colour=colour,
         navigator=lambda s, _: UserFieldNavigator(field, name, _goal(s), s.field_gains),
-        goal_attraction=lambda _: PassThroughGoal(),
+        goal_attraction=lambda *_: PassThroughGoal(),
         parameters="field_gains",
         gains=tuple(
             Gain(f"field_gains.{key}", float(low), float(high), default=default)

@@ -170,21 +170,34 @@ def artificial_current(
     )
 
 
-def _blocking_weight(l_a, n, r_g):
-    if dot(l_a, n) >= 0.0:
-        return 1.0
+# Repair (h): approaching, eq 12's weight rises from 0 to 1 as l_a·n goes
+# from AHEAD[0] to AHEAD[1] (the closest point 72.5° to 53° off the heading).
+AHEAD = (0.3, 0.6)
+
+
+def _blocking_weight(l_a, n, r_g, ahead: bool = False):
+    along = dot(l_a, n)
+    if along >= 0.0:
+        if not ahead:
+            return 1.0
+        return min(1.0, max(0.0, (along - AHEAD[0]) / (AHEAD[1] - AHEAD[0])))
     distance = norm(r_g)
     if distance < TINY:
         return 0.0
     return min(1.0, max(0.0, 10.0 * dot(r_g, n) / distance))
 
 
-def blocking_weight(l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray):
+def blocking_weight(
+    l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray, ahead: bool = False
+):
     """Repair (a): the weight of eq 12 for an obstacle. 1 while the vehicle
     approaches it (l_a·n ≥ 0); receding, 1 only if it lies toward the goal,
     n·l_g ≥ 0.1, fading to 0 at n·l_g = 0. Continuous: eq 12 vanishes at
-    l_a·n = 0 whatever the weight."""
-    return _blocking_weight(entries(l_a), entries(n), entries(r_g))
+    l_a·n = 0 whatever the weight. With `ahead` (repair (h)) an approached
+    obstacle weighs 0 up to l_a·n = AHEAD[0] and 1 from AHEAD[1] on,
+    linearly between: eq 12 turns the vehicle only round obstacles nearly
+    in its path, and leaves those it passes obliquely to eq 14."""
+    return _blocking_weight(entries(l_a), entries(n), entries(r_g), ahead)
 
 
 def _boundary_following(
@@ -272,7 +285,7 @@ def obstacle_field(
         l_a, l_o, speed, r, params.c, params.r_l, params.tapered_range
     )
     if params.follow_blocking_only:
-        F = _scaled(F, _blocking_weight(l_a, n, r_g))
+        F = _scaled(F, _blocking_weight(l_a, n, r_g, params.follow_ahead_only))
     F_a = _collision_avoidance(l_a, n, l_o, r, params.c_perp, params.r_b)
     if params.hover_fade and speed < params.fade_speed:
         F_a = _scaled(F_a, speed / params.fade_speed)

@@ -26,6 +26,7 @@ import copy
 
 import numpy as np
 from pydrake.systems.framework import (
+    EventStatus,
     LeafSystem,
     LeafSystem_,
     UnrestrictedUpdateEvent_,
@@ -161,13 +162,18 @@ def GoalAttractionSelector_(T):
 
         Cruise: F_n = F_o + F_gc + F_v (eq 16–19); PD: F_n = F_o + F_pd
         (eq 20). With repair (g) F_v also holds the drag of the turning
-        force F_o + F_gc (`fields.lag_drag`), given the vehicle's mass
-        (`set_mass`; the flight diagram sets it).
+        force F_o + F_gc (`fields.lag_drag`), given the vehicle's `mass`
+        (without it, as in the analysis diagrams, the drag is off; the
+        registry's MFI methods pass the vehicle's).
 
         With `mode=None` the mode is a discrete state, set at
         initialization from the initial state and switched by witness
         functions (cruise_guard / pd_guard crossing zero), so the integrator
-        localises each switch instead of stepping over a jump. A fixed
+        localises each switch instead of stepping over a jump; and checked
+        at the start of every step, which catches a guard crossed by a jump
+        of the state it reads (a sampled state estimate jumps between steps,
+        where no witness sees a crossing: it once held PD, whose saturated
+        pull is not damped far from the goal, up to 4.9 m/s). A fixed
         `mode` (fields.MODE_PD or MODE_CRUISE) declares no state, for
         linearisation.
 
@@ -202,6 +208,7 @@ def GoalAttractionSelector_(T):
                 self._mode_index = self.DeclareDiscreteState(1)
                 tickets.add(self.discrete_state_ticket(self._mode_index))
                 self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
+                self.DeclarePerStepUnrestrictedUpdateEvent(self._follow_jump)
                 to_cruise = UnrestrictedUpdateEvent_[T](
                     self._switch_to(fields.MODE_CRUISE)
                 )
@@ -254,12 +261,6 @@ def GoalAttractionSelector_(T):
                 converter=converter,
             )
 
-        def set_mass(self, mass: float) -> None:
-            """The vehicle's mass [kg], for repair (g)'s lag drag (without it,
-            as in the analysis diagrams, the drag is off). Call it before
-            the diagram is built."""
-            self.mass = float(mass)
-
         def mode(self, context) -> int:
             if self.fixed_mode is not None:
                 return self.fixed_mode
@@ -280,6 +281,22 @@ def GoalAttractionSelector_(T):
             state.get_mutable_discrete_state(self._mode_index).SetAtIndex(
                 0, float(mode)
             )
+
+        def _follow_jump(self, context, state):
+            """The mode eq 21 asks for if a guard is already crossed."""
+            mode = self.mode(context)
+            p, v = position_velocity(self._state.Eval(context))
+            if mode == fields.MODE_PD:
+                crossed = fields.cruise_guard(p, v, self.goal, self.params) >= 0.0
+            else:
+                crossed = fields.pd_guard(p, v, self.goal, self.params) <= 0.0
+            if not crossed:
+                return EventStatus.DidNothing()
+            other = fields.MODE_CRUISE if mode == fields.MODE_PD else fields.MODE_PD
+            state.get_mutable_discrete_state(self._mode_index).SetAtIndex(
+                0, float(other)
+            )
+            return EventStatus.Succeeded()
 
         def _guard(self, guard):
             def value(x):
