@@ -324,3 +324,18 @@ def test_obstacle_count_benchmark_flies_the_same_path_in_every_world(capsys):
     results = module.main(["--counts", "10", "40", "--repeats", "1", "--duration", "2"])
     assert "same trajectory in every world: yes" in capsys.readouterr().out
     assert results[10]["steps"] == results[40]["steps"] > 0
+
+
+def test_a_long_or_path_like_variant_names_its_failure_file_by_a_hash(tmp_path):
+    config = sweep.SweepConfig(out=str(tmp_path))
+    field = sc.Scenario(name="field_d0.2_s100_i7")
+    names = {}
+    for variant in ("sensor_noise_std=0.05", "x" * 200, "navigator: {c: 2}/x"):
+        key = sweep.FlightKey(variant, "depth", 0.2, 100, 7, "mfi")
+        names[variant] = os.path.basename(sweep._failure_path(config, key, field))
+    assert names["sensor_noise_std=0.05"] == (
+        "sensor_noise_std=0.05_depth_mfi_field_d0.2_s100_i7.yaml"
+    )
+    for variant in ("x" * 200, "navigator: {c: 2}/x"):
+        assert names[variant].startswith("variant-") and len(names[variant]) < 64
+    assert names["x" * 200] != names["navigator: {c: 2}/x"]

@@ -357,8 +357,13 @@ class SweepRun:
 
 def _failure_path(config: SweepConfig, key: FlightKey, scenario: Scenario) -> str:
     """failures/[variant_][sensor_]method_field.yaml (the default sphere sensor
-    and no variant leave their part out)."""
-    parts = [key.variant, "" if key.sensor == "sphere" else key.sensor, key.method]
+    and no variant leave their part out). A variant too long for a file
+    name, or holding a path separator (a long --set), is named by a hash
+    of its text; the file's header names it whole."""
+    variant = key.variant
+    if len(variant) > 64 or os.sep in variant or "/" in variant:
+        variant = "variant-" + hashlib.sha1(variant.encode()).hexdigest()[:8]
+    parts = [variant, "" if key.sensor == "sphere" else key.sensor, key.method]
     name = "_".join([p for p in parts if p] + [scenario.name])
     return os.path.join(config.out, "failures", f"{name}.yaml")
 
