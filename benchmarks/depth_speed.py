@@ -1,7 +1,7 @@
 """How fast the depth-camera flights of paper Fig 11 run, and what a frame
 costs.
 
-    python benchmarks/depth_speed.py [--repeats 3]
+    python benchmarks/depth_speed.py [--repeats 3] [--sensor YAML]
 
 For scenarios/pelican_cylinder.yaml and pelican_cube.yaml, flown as
 `mfi-drake run` flies them (`simulation.simulate`), the camera fixed to the
@@ -19,7 +19,12 @@ body as the files have it and on a gimbal (`gimbal: {}`):
    (`CameraModel.view`), memory (`perception.fuse`), segmentation
    (`perception.read`: surface links, voxel graph, local minima), pose
    (the mount's pose from the estimate and, on a gimbal, its next angles);
-   and the reading between frames (`Groups.nearest`), per evaluation.
+   and the reading between frames (`Groups.nearest`), per evaluation;
+   a rig's cameras summed.
+
+With --sensor YAML (e.g. '!DepthCameraRig {rate_hz: 20.0, cameras: [...]}')
+each flight is flown with that sensor instead, and parts 1 and 2 are given
+for it alone.
 
 The machine's other load shows up in the wall time as noise, hence the best
 of several runs and the CPU time beside it.
@@ -32,7 +37,7 @@ import time
 
 import numpy as np
 
-from mfi_drake.config.scenario import Gimbal, Scenario, SphereSensor
+from mfi_drake.config.scenario import Gimbal, Scenario, ScenarioError, SphereSensor
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import Flight, simulate
 from mfi_drake.maths.layout import OBSTACLE_COUNT
@@ -69,18 +74,28 @@ def line(label: str, flight: Flight, cpu: float) -> str:
 
 def frame_costs(flight: Flight) -> dict[str, float]:
     """Mean CPU time [µs] of each piece of a frame, and of one reading, over
-    the frames of `flight` replayed from its logged states."""
+    the frames of `flight` replayed from its logged states; a rig's cameras
+    are summed."""
     scenario = flight.scenario
     built = build_diagram(scenario)
     context = built.diagram.CreateDefaultContext()
     plant = built.plant.GetMyMutableContextFromRoot(context)
     sensor = built.sensor
     sensor_context = sensor.GetMyMutableContextFromRoot(context)
-    (camera,) = sensor.cameras
-    rgbd = built.diagram.GetSubsystemByName("rgbd_sensor_0")
-    cloud_system = built.diagram.GetSubsystemByName("point_cloud_0")
-    rgbd_context = rgbd.GetMyContextFromRoot(context)
-    cloud_context = cloud_system.GetMyContextFromRoot(context)
+    cameras = []  # (camera model, its RgbdSensor, its cloud system, contexts)
+    for i, camera in enumerate(sensor.cameras):
+        rgbd = built.diagram.GetSubsystemByName(f"rgbd_sensor_{i}")
+        cloud = built.diagram.GetSubsystemByName(f"point_cloud_{i}")
+        cameras.append(
+            (
+                camera,
+                rgbd.depth_image_32F_output_port(),
+                rgbd.GetMyContextFromRoot(context),
+                cloud.point_cloud_output_port(),
+                cloud.GetMyContextFromRoot(context),
+            )
+        )
+    reach = max(camera.max_range for camera in sensor.cameras)
     rate = scenario.sensor.rate_hz
     frames = np.arange(0.0, flight.times[-1], 1.0 / rate)
     samples = np.searchsorted(flight.times, frames - 1e-9)
@@ -99,39 +114,64 @@ def frame_costs(flight: Flight) -> dict[str, float]:
         plant.SetContinuousState(x)
         if sensor.gimbal:
             sensor.set_gimbal_angles(sensor_context, angles)
-        depth = timed("render", rgbd.depth_image_32F_output_port().Eval, rgbd_context)
-        cloud = timed(
-            "cloud", cloud_system.point_cloud_output_port().Eval, cloud_context
-        )
         R_WM, p_WM = timed("pose", sensor.mount_pose, x, angles)
         if sensor.gimbal:
             angles = timed("pose", sensor.next_gimbal_angles, angles, x)
-        view = timed("thin", camera.view, R_WM, p_WM, cloud, depth)
+        views = []
+        for camera, depth_port, rgbd_context, cloud_port, cloud_context in cameras:
+            depth = timed("render", depth_port.Eval, rgbd_context)
+            cloud = timed("cloud", cloud_port.Eval, cloud_context)
+            views.append(timed("thin", camera.view, R_WM, p_WM, cloud, depth))
         memory = timed(
             "memory",
             fuse,
             percept.memory,
-            [view],
+            views,
             t,
             x[:3],
             scenario.sensor.memory_s,
-            camera.max_range,
+            reach,
         )
-        percept = timed(
-            "segmentation", read, memory, [view.frame], x[:3], OBSTACLE_COUNT
-        )
+        seen = [view.frame for view in views]
+        percept = timed("segmentation", read, memory, seen, x[:3], OBSTACLE_COUNT)
         timed("reading", percept.basins.nearest, x[:3])
     return {piece: 1e6 * total / len(frames) for piece, total in spent.items()}
+
+
+def print_frame_costs(label: str, flight: Flight) -> None:
+    costs = frame_costs(flight)
+    split = ", ".join(f"{piece} {costs[piece]:.0f}" for piece in PIECES)
+    print(
+        f"  {label} per frame [µs CPU]: {split}; "
+        f"total {sum(costs[p] for p in PIECES):.0f}"
+        f"; a reading between frames {costs['reading']:.0f}"
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument(
+        "--sensor",
+        metavar="YAML",
+        help="fly this sensor instead (e.g. a !DepthCameraRig), as --set "
+        "'sensor: YAML' would",
+    )
     args = parser.parse_args()
     if args.repeats < 1:
         parser.error(f"--repeats = {args.repeats}: must be >= 1")
+    layers = [] if args.sensor is None else [("--sensor", f"sensor: {args.sensor}")]
     for name in SCENARIOS:
-        scenario = load_scenario(os.path.join(ROOT, "scenarios", name))
+        try:
+            scenario = load_scenario(os.path.join(ROOT, "scenarios", name), layers)
+        except ScenarioError as e:
+            parser.error(str(e))
+        if args.sensor is not None:
+            flight, cpu = best_of(scenario, args.repeats)
+            print(f"{scenario.name} (best of {args.repeats})")
+            print(line("sensor", flight, cpu))
+            print_frame_costs("sensor", flight)
+            continue
         camera = scenario.sensor
         print(
             f"{scenario.name}: depth camera {camera.width}x{camera.height}, "
@@ -151,13 +191,7 @@ def main() -> None:
         )
         print(line("sphere", *best_of(sphere, args.repeats)))
         for label, flight in flights.items():
-            costs = frame_costs(flight)
-            split = ", ".join(f"{piece} {costs[piece]:.0f}" for piece in PIECES)
-            print(
-                f"  {label} per frame [µs CPU]: {split}; "
-                f"total {sum(costs[p] for p in PIECES):.0f}"
-                f"; a reading between frames {costs['reading']:.0f}"
-            )
+            print_frame_costs(label, flight)
 
 
 if __name__ == "__main__":
