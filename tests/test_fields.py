@@ -189,3 +189,12 @@ def test_eq21_guards_select_the_mode():
     assert fields.pd_guard(p, np.array([0.01, 0, 0]), goal, P) < 0  # stalled
     F_gc, F_v, F_pd = fields.goal_terms(fields.MODE_PD, p, np.ones(3), goal, P)
     assert not F_gc.any() and not F_v.any() and F_pd.any()
+    # next_mode: each mode leaves only across its own guard (the hysteresis:
+    # 0.1 m/s is below v_min, so PD stays, but above v_stop, so cruise stays).
+    PD, CRUISE = fields.MODE_PD, fields.MODE_CRUISE
+    slow, fast = np.array([0.1, 0, 0]), np.array([1.0, 0, 0])
+    assert fields.next_mode(PD, p, fast, goal, P) == CRUISE
+    assert fields.next_mode(PD, p, slow, goal, P) == PD
+    assert fields.next_mode(CRUISE, p, slow, goal, P) == CRUISE
+    assert fields.next_mode(CRUISE, p, np.zeros(3), goal, P) == PD
+    assert fields.next_mode(CRUISE, goal - [0.5, 0, 0], fast, goal, P) == PD

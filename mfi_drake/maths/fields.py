@@ -418,6 +418,15 @@ def pd_guard(p: np.ndarray, v: np.ndarray, goal: np.ndarray, params):
     return min(norm(v) - params.v_stop, _distance_to_goal(p, goal) - params.r_gl)
 
 
+def next_mode(mode: int, p: np.ndarray, v: np.ndarray, goal: np.ndarray, params):
+    """The mode eq 21 selects from `mode` at (p, v): PD leaves for cruise
+    where cruise_guard ≥ 0, cruise for PD where pd_guard ≤ 0; else `mode`.
+    From PD it is also the mode eq 21 selects from scratch."""
+    if mode == MODE_PD:
+        return MODE_CRUISE if cruise_guard(p, v, goal, params) >= 0.0 else MODE_PD
+    return MODE_PD if pd_guard(p, v, goal, params) <= 0.0 else MODE_CRUISE
+
+
 def _lag_drag(speed, F_perp_sq, lag: float, mass: float):
     # a = τ|F⊥|/m, so τω = a/v; D = (m/τ) v a² / (v² + 2a²), finite for v > 0.
     a_sq = F_perp_sq * (lag / mass) ** 2

@@ -272,30 +272,24 @@ def GoalAttractionSelector_(T):
         def initial_mode(self, x) -> int:
             """The mode eq 21 selects at rest-or-moving state x from scratch."""
             p, v = position_velocity(x)
-            if fields.cruise_guard(p, v, self.goal, self.params) >= 0.0:
-                return fields.MODE_CRUISE
-            return fields.MODE_PD
+            return fields.next_mode(fields.MODE_PD, p, v, self.goal, self.params)
 
-        def _initialize(self, context, state):
-            mode = self.initial_mode(self._state.Eval(context))
+        def _write_mode(self, state, mode: int) -> None:
             state.get_mutable_discrete_state(self._mode_index).SetAtIndex(
                 0, float(mode)
             )
+
+        def _initialize(self, context, state):
+            self._write_mode(state, self.initial_mode(self._state.Eval(context)))
 
         def _follow_jump(self, context, state):
             """The mode eq 21 asks for if a guard is already crossed."""
             mode = self.mode(context)
             p, v = position_velocity(self._state.Eval(context))
-            if mode == fields.MODE_PD:
-                crossed = fields.cruise_guard(p, v, self.goal, self.params) >= 0.0
-            else:
-                crossed = fields.pd_guard(p, v, self.goal, self.params) <= 0.0
-            if not crossed:
+            new = fields.next_mode(mode, p, v, self.goal, self.params)
+            if new == mode:
                 return EventStatus.DidNothing()
-            other = fields.MODE_CRUISE if mode == fields.MODE_PD else fields.MODE_PD
-            state.get_mutable_discrete_state(self._mode_index).SetAtIndex(
-                0, float(other)
-            )
+            self._write_mode(state, new)
             return EventStatus.Succeeded()
 
         def _guard(self, guard):
@@ -314,9 +308,7 @@ def GoalAttractionSelector_(T):
 
         def _switch_to(self, mode):
             def update(context, event, state):
-                state.get_mutable_discrete_state(self._mode_index).SetAtIndex(
-                    0, float(mode)
-                )
+                self._write_mode(state, mode)
 
             return update
 
