@@ -115,9 +115,11 @@ def ObstacleNavigator_(T):
             x = self._state.Eval(context)
             obstacle = self._obstacle.Eval(context)
             key = x.tobytes() + obstacle.tobytes()
-            return self._last(key, self._terms_of, x, obstacle)
+            return self._last(key, self.terms_of, x, obstacle)
 
-        def _terms_of(self, x, obstacle):
+        def terms_of(self, x, obstacle) -> tuple:
+            """(A, B, F_o = A + B) at state x and the readings `obstacle`
+            (the "obstacle" signal), without the ports."""
             p, v = position_velocity(x)
             A, B = fields.superposed(
                 self.field,

@@ -19,7 +19,6 @@ navigator ("state", "obstacle" → "obstacle_force", "obstacle_force_terms"),
 plus "obstacle_velocity" for the log.
 """
 
-import copy
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -28,7 +27,6 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 
 from mfi_drake.config.dynamic import RelativeVelocity
-from mfi_drake.maths import fields
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,
@@ -36,7 +34,6 @@ from mfi_drake.maths.layout import (
     STATE_SIZE,
     VELOCITY,
     obstacle_signal,
-    position_velocity,
     readings,
 )
 from mfi_drake.maths.motion import (
@@ -168,18 +165,15 @@ class RelativeNavigator(LeafSystem):
         - obstacle_force
         - obstacle_force_terms
 
-    `navigator`: an `ObstacleNavigator`, whose field, parameters, goal and
-    collision radius it copies; its force must be the sum of its readings'.
+    `navigator`: an `ObstacleNavigator` of its own (not in a diagram), whose
+    `terms_of` it evaluates; its force must be the sum of its readings'.
     One system rather than a navigator per reading and adders: the same sums
     in the same order, with a fifth of the ports to evaluate.
     """
 
     def __init__(self, navigator, own_pace: bool, blend_speed: float):
         super().__init__()
-        self._field = navigator.field
-        self._params = copy.deepcopy(navigator.params)
-        self._goal = np.array(navigator.goal, dtype=float)
-        self._radius = float(navigator.collision_radius)
+        self._navigator = navigator
         self._own_pace = bool(own_pace)
         self._blend = float(blend_speed)
         self._last = LastResult()
@@ -209,11 +203,8 @@ class RelativeNavigator(LeafSystem):
         return self._last(key, self._forces_of, x, obstacle, u)
 
     def _terms(self, x, obstacle):
-        p, v = position_velocity(x)
-        A, B = fields.superposed(
-            self._field, v, obstacle, self._goal - p, self._radius, self._params
-        )
-        return A + B, np.concatenate([A, B])
+        A, B, F_o = self._navigator.terms_of(x, obstacle)
+        return F_o, np.concatenate([A, B])
 
     def _forces_of(self, x, obstacle, u):
         force, terms = np.zeros(3), np.zeros(6)
