@@ -485,8 +485,7 @@ def goal_terms(
             v, speed, l_a, r_g, params.K_omega, params.smooth_goal_turn
         )
         F_v = _speed_control(speed, l_a, params.K_v, params.v_d)
-        lagging = getattr(params, "lag_drag", False) and F_o is not None
-        if lagging and mass is not None and speed > TINY:
+        if params.lag_drag and F_o is not None and mass is not None and speed > TINY:
             # Repair (g): F⊥ = F_o + F_gc, the turning part of eq 21's F_n.
             F_o = entries(F_o)
             F = (F_o[0] + F_gc[0], F_o[1] + F_gc[1], F_o[2] + F_gc[2])
