@@ -11,6 +11,7 @@ purpose, since uniform random floats would almost never hit them.
 """
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -138,7 +139,9 @@ def assert_finite(*arrays):
 def assert_zero_work(F, v):
     """|F·v| ≤ 1e-9 |F||v|: the force does no work (up to rounding)."""
     F, v = np.asarray(F, float), np.asarray(v, float)
-    scale = np.linalg.norm(F) * np.linalg.norm(v)
+    # math.hypot scales before squaring: np.linalg.norm of a 1e-208 vector
+    # underflows to 0 and would demand |F·v| ≤ 1e-300 of a tiny force.
+    scale = math.hypot(*F) * math.hypot(*v)
     assert abs(F @ v) <= 1e-9 * scale + 1e-300, (F, v)
 
 
@@ -147,6 +150,14 @@ def assert_zero_work(F, v):
 @FAST
 @given(configurations(), st.sampled_from([0.0, 1.0]))
 @example((np.array([1.0, 0, 0]), np.array([0.5, 0, 0]), np.zeros(3)), 1.0)
+@example(  # a 1e-208 force: its norm, squared, underflows
+    (
+        np.array([1.0, -1e-12, 0.0]),
+        np.array([0.0, 6.96845245e-09, 0.0]),
+        np.array([0.0, 2.8739316814169353e-198, 135.0]),
+    ),
+    1.0,
+)
 @example((np.array([1.0, 0, 0]), np.array([RADIUS, 0, 0]), np.array([-5.0, 0, 0])), 1)
 @example((np.zeros(3), np.array([0.3, 0, 0]), np.zeros(3)), 1.0)
 def test_obstacle_field_is_finite_and_does_no_work(params, config, seen):
