@@ -1,6 +1,8 @@
 """§V chain: the mixer against QuadrotorPlant's own dynamics, the signs of
 roll and pitch (Drake's convention) by flying, and rotor saturation."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
@@ -116,6 +118,76 @@ def test_setpoint_signs_follow_drakes_convention():
     assert T == pytest.approx(vehicle.weight - 50.0 * k)
     assert pitch == pytest.approx(P.max_tilt) and roll == 0
     assert wrap_angle(3 * np.pi / 2) == pytest.approx(-np.pi / 2)
+
+
+def _delivered(T, roll, pitch, yaw, weight):
+    """The force a setpoint delivers (eq 24 inverted, K_Pv = 1)."""
+    forward, left = pitch * T, -roll * T
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([c * forward - s * left, s * forward + c * left, T - weight])
+
+
+def test_brake_first_keeps_the_braking_and_scales_the_rest_by_hand():
+    """Level, v along +x, m g max_tilt of horizontal force to give: F_n =
+    (−2, 10, 0) N is delivered as (−2, k·10, 0) with |(−2, 10k)| = max_tilt
+    m g; F_n = (−10, 10, 0) N brakes alone, (−max_tilt m g, 0, 0)."""
+    vehicle = VEHICLES["drake_default"]
+    params = dataclasses.replace(P, brake_first=True)
+    limit = P.max_tilt * vehicle.weight
+    v = np.array([1.0, 0.0, 0.0])
+    setpoint = attitude_setpoint(
+        np.array([-2.0, 10, 0]), np.zeros(3), 0, vehicle, params, v
+    )
+    k = np.sqrt(limit**2 - 4.0) / 10.0
+    np.testing.assert_allclose(
+        _delivered(*setpoint[:3], 0.0, vehicle.weight), [-2.0, 10 * k, 0], atol=1e-12
+    )
+    setpoint = attitude_setpoint(
+        np.array([-10.0, 10, 0]), np.zeros(3), 0, vehicle, params, v
+    )
+    np.testing.assert_allclose(
+        _delivered(*setpoint[:3], 0.0, vehicle.weight), [-limit, 0, 0], atol=1e-12
+    )
+    # Without braking, or without a velocity, all of F_n is scaled.
+    for F_n, velocity in (([2.0, 10, 0], v), ([-2.0, 10, 0], None)):
+        setpoint = attitude_setpoint(
+            np.array(F_n), np.zeros(3), 0, vehicle, params, velocity
+        )
+        delivered = _delivered(*setpoint[:3], 0.0, vehicle.weight)
+        np.testing.assert_allclose(delivered, limit * np.array(F_n) / np.hypot(2, 10))
+
+
+def test_brake_first_adds_no_work_and_respects_the_limits():
+    """Any F_n, v, yaw: the delivered force is b' + k q with b' the braking
+    part of F_n (scaled only when it alone exceeds the limits) and q the
+    rest: its part ⟂ v is parallel to F_n's (the ⟂ terms do no work) and
+    its part along v never exceeds F_n's; the thrust floor and tilt limit
+    hold, and one binds whenever F_n is not delivered in full."""
+    vehicle = VEHICLES["drake_default"]
+    params = dataclasses.replace(P, brake_first=True)
+    T_min = P.min_thrust_fraction * vehicle.weight
+    rng = np.random.default_rng(3)
+    for scale in (0.5, 5.0, 50.0):
+        for _ in range(200):
+            F_n = rng.normal(size=3) * scale * vehicle.weight / 5
+            v = rng.normal(size=3)
+            yaw = rng.uniform(-np.pi, np.pi)
+            T, roll, pitch, _ = attitude_setpoint(
+                F_n, np.array([0, 0, yaw]), 0.0, vehicle, params, v
+            )
+            delivered = _delivered(T, roll, pitch, yaw, vehicle.weight)
+            l_v = v / np.linalg.norm(v)
+            perp, perp_n = delivered - (delivered @ l_v) * l_v, F_n - (F_n @ l_v) * l_v
+            np.testing.assert_allclose(np.cross(perp, perp_n), 0, atol=1e-9 * scale**2)
+            assert perp @ perp_n >= -1e-12
+            if F_n @ l_v < 0:
+                assert F_n @ l_v - 1e-9 <= delivered @ l_v <= 1e-12
+            assert T >= T_min * (1 - 1e-12)
+            assert np.hypot(roll, pitch) <= P.max_tilt * (1 + 1e-9)
+            if not np.allclose(delivered, F_n, atol=1e-9 * scale):
+                assert T == pytest.approx(T_min) or np.hypot(
+                    roll, pitch
+                ) == pytest.approx(P.max_tilt)
 
 
 @pytest.mark.parametrize("name", sorted(VEHICLES))

@@ -3,17 +3,20 @@ paper's literal form on a hand-built configuration, and the symmetric
 two-sphere layout that made the paper's form chatter."""
 
 import dataclasses
+import os
 
 import numpy as np
 import pytest
 
-from mfi_drake import simulate
+from mfi_drake import load_scenario, simulate
 from mfi_drake.config.parameters import NavigatorParams, paper_form
 from mfi_drake.config.scenario import Obstacle, Scenario, Sphere
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.maths import fields
 from mfi_drake.maths.layout import obstacle_signal
 from mfi_drake.systems.navigation import GoalAttractionSelector
+
+from .conftest import SCENARIOS
 
 R = VEHICLES["drake_default"].collision_radius
 # The cases below were measured with the gains before tuning (r_l = 1.5 m).
@@ -230,14 +233,21 @@ def test_g_the_selector_brakes_with_the_vehicle_mass_and_F_o():
 
 
 def test_h_eq12_weighs_an_approached_obstacle_by_how_nearly_ahead_it_is():
-    """Approaching at l_a·n = 0.45, halfway up (h)'s ramp from 0.3 to 0.6:
-    half of (a)'s eq 12; at 0.2 none, at 0.7 all of it; receding, (a)'s
-    rule. F_a (eq 14) is untouched."""
-    r_o = (0.5 + R) * EY
+    """An obstacle 1.4 m away (its heading line passes it wide, > 1 m):
+    approaching at l_a·n = 0.45, halfway up (h)'s ramp from 0.3 to 0.6, half
+    of (a)'s eq 12; at 0.2 none, at 0.7 all of it; receding, (a)'s rule.
+    0.8 m away at l_a·n = 0.2, the heading line's clearance m = |r_o × l_a|
+    − ρ sets the weight, (1 − m)/0.5; 0.3 m away it is 1 (m < 0.5). F_a
+    (eq 14) is untouched."""
     goal = 10.0 * EX
     a = only(follow_blocking_only=True)
     h = dataclasses.replace(a, follow_ahead_only=True)
-    for along, weight in ((0.45, 0.5), (0.2, 0.0), (0.7, 1.0), (-0.3, None)):
+    near = (0.8 + R) * np.sqrt(1.0 - 0.2**2) - R  # the clearance m at 0.8 m
+    cases = [(1.4, 0.45, 0.5), (1.4, 0.2, 0.0), (1.4, 0.7, 1.0), (1.4, -0.3, None)]
+    cases += [(0.8, 0.2, (1.0 - near) / 0.5), (0.3, 0.2, 1.0)]
+    assert 0.1 < cases[-2][2] < 0.9
+    for r, along, weight in cases:
+        r_o = (r + R) * EY
         v = np.array([np.sqrt(1.0 - along**2), along, 0.0])  # l_a·n = along
         F_a, B_a = fields.obstacle_field(v, r_o, 1.0, goal, R, a)
         F_h, B_h = fields.obstacle_field(v, r_o, 1.0, goal, R, h)
@@ -248,6 +258,27 @@ def test_h_eq12_weighs_an_approached_obstacle_by_how_nearly_ahead_it_is():
             assert np.linalg.norm(F_a) > 0.3
             np.testing.assert_allclose(F_h, weight * F_a, atol=1e-12)
     assert fields.blocking_weight(EX, EX, goal, ahead=True) == 1.0  # head-on
+
+
+def test_h_makes_no_limit_cycle_along_a_wall():
+    """The planar wall, where (h) on the approach angle alone made the heading
+    swing round its ramp along the face (+29 % steps): with the clearance
+    term the flight takes no more steps than with (h) off, and its path is
+    as long to 1 %."""
+    path = os.path.join(SCENARIOS, "planar_wall.yaml")
+    flights = {
+        on: simulate(
+            load_scenario(path, [("h", f"navigator: {{follow_ahead_only: {on}}}")]),
+            until_settled=True,
+        )
+        for on in ("true", "false")
+    }
+    on, off = flights["true"], flights["false"]
+    assert on.metrics["success"] and off.metrics["success"]
+    assert on.integrator_steps <= 1.02 * off.integrator_steps
+    assert on.metrics["path_length"] == pytest.approx(
+        off.metrics["path_length"], rel=0.01
+    )
 
 
 @pytest.mark.parametrize("offset", [1e-9, -1e-9, 0.0])

@@ -34,15 +34,15 @@ class NavigatorParams:
     that lies toward the goal (n·l_g > 0, blended in over n·l_g ∈ [0, 0.1]);
     the paper's eq 12 also pulls a vehicle receding from an obstacle that is
     not in its way back toward it."""
-    follow_ahead_only: bool = False
+    follow_ahead_only: bool = True
     """(h) With (a), an approached obstacle gets eq 12 in full only when it
-    lies nearly ahead: the weight rises from 0 to 1 as l_a·n goes from 0.3
-    to 0.6 (`fields.blocking_weight`). Eq 12's size is ∝ (l_a·n)·√(1 −
-    (l_a·n)²), largest 45° off the heading, so obstacles the vehicle merely
-    passes bent its path; eq 14 still acts on them within r_b. Off by
-    default: 6–7 % shorter paths on held-out random fields, but along a
-    wall the heading swings round the ramp (+29 % steps on the planar
-    wall, docs/comparison.md)."""
+    lies in or near the vehicle's path: the weight rises from 0 to 1 as l_a·n
+    goes from 0.3 to 0.6, or as the heading line's clearance from the
+    closest point falls from 1 m to 0.5 m, whichever is larger
+    (`fields.blocking_weight`). Eq 12's size is ∝ (l_a·n)·√(1 − (l_a·n)²),
+    largest 45° off the heading, so obstacles the vehicle merely passed bent
+    its path; eq 14 still acts on them within r_b. The clearance term keeps
+    eq 12 whole beside a wall, where the angle alone made a limit cycle."""
     continuous_side: bool = True
     """(b) Head-on, eq 11's current is lengthened along a tangent whose side
     turns over continuously in a thin band (`fields.artificial_current`),
@@ -67,9 +67,10 @@ class NavigatorParams:
     """(f) Eq 13's f = v/r becomes f = v (1/r − 1/r_l), which vanishes at r_l
     as eq 15's f_a does at r_b, instead of ending with a jump of c·v/r_l
     (2.7 N at the defaults) each time an obstacle crosses r_l: the error
-    controlled integrator had to shrink its steps at every crossing. Off by
-    default: it also weakens eq 13 inside r_l, and collisions at density
-    0.2 rose from 4 to 11 of 200 held-out fields (docs/comparison.md)."""
+    controlled integrator had to shrink its steps at every crossing (~25 %
+    fewer steps without the jump). Off by default: it also weakens eq 13
+    inside r_l, so a wall met head-on is turned from late, at 0.3 m, where
+    the vehicle then zigzags along it (docs/comparison.md)."""
     lag_drag: bool = True
     """(g) Eq 19's F_v also brakes by D = τ|F⊥|²/(m v) (to first order in
     τω; bounded by m v/(2τ)) while the vehicle turns under F⊥ = F_o + F_gc,
@@ -109,6 +110,14 @@ class NavigatorParams:
     min_thrust_fraction: float = 0.1
     """Least thrust T, as a fraction of m·g: F_n is scaled down to keep T above
     it (eq 24) [-]."""
+    brake_first: bool = True
+    """When F_n asks for more than the vehicle delivers, deliver its part along
+    −v (braking) first and scale the rest into what remains, instead of
+    scaling all of F_n (`quadcopter.attitude_setpoint`). Scaling all of it
+    let a large ⟂ command (eq 12–15 near an obstacle) scale eq 19's braking
+    away, and the attitude lag then sped the vehicle up to 2–3 m/s into the
+    obstacle: every collision of MFI on its training fields at density 0.2
+    was one of these. For every method (it is the vehicle's chain)."""
     tilt_compensation: bool = True
     """Divide T by cos(roll)·cos(pitch) so the vertical force is F_Qz."""
     yaw_follows_motion: bool = False

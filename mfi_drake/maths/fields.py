@@ -11,6 +11,7 @@ r_g = p_g − p.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -171,16 +172,26 @@ def artificial_current(
 
 
 # Repair (h): approaching, eq 12's weight rises from 0 to 1 as l_a·n goes
-# from AHEAD[0] to AHEAD[1] (the closest point 72.5° to 53° off the heading).
+# from AHEAD[0] to AHEAD[1] (the closest point 72.5° to 53° off the heading),
+# or as the heading line's clearance from the closest point falls from
+# AHEAD_MISS[1] to AHEAD_MISS[0] [m], whichever is larger. The clearance
+# keeps eq 12 whole beside a surface the vehicle skirts closely: on the angle
+# alone, the heading swung round the ramp along a wall (a limit cycle).
 AHEAD = (0.3, 0.6)
+AHEAD_MISS = (0.5, 1.0)
 
 
-def _blocking_weight(l_a, n, r_g, ahead: bool = False):
+def _ramp(x, zero, one):
+    """0 at x = zero, 1 at x = one, linear between, clipped."""
+    return min(1.0, max(0.0, (x - zero) / (one - zero)))
+
+
+def _blocking_weight(l_a, n, r_g, ahead: bool = False, miss=math.inf):
     along = dot(l_a, n)
     if along >= 0.0:
         if not ahead:
             return 1.0
-        return min(1.0, max(0.0, (along - AHEAD[0]) / (AHEAD[1] - AHEAD[0])))
+        return max(_ramp(along, *AHEAD), _ramp(miss, AHEAD_MISS[1], AHEAD_MISS[0]))
     distance = norm(r_g)
     if distance < TINY:
         return 0.0
@@ -188,16 +199,18 @@ def _blocking_weight(l_a, n, r_g, ahead: bool = False):
 
 
 def blocking_weight(
-    l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray, ahead: bool = False
+    l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray, ahead: bool = False, miss=math.inf
 ):
     """Repair (a): the weight of eq 12 for an obstacle. 1 while the vehicle
     approaches it (l_a·n ≥ 0); receding, 1 only if it lies toward the goal,
     n·l_g ≥ 0.1, fading to 0 at n·l_g = 0. Continuous: eq 12 vanishes at
     l_a·n = 0 whatever the weight. With `ahead` (repair (h)) an approached
-    obstacle weighs 0 up to l_a·n = AHEAD[0] and 1 from AHEAD[1] on,
-    linearly between: eq 12 turns the vehicle only round obstacles nearly
-    in its path, and leaves those it passes obliquely to eq 14."""
-    return _blocking_weight(entries(l_a), entries(n), entries(r_g), ahead)
+    obstacle weighs max(ramp of l_a·n from 0 at AHEAD[0] to 1 at AHEAD[1],
+    ramp of `miss` from 0 at AHEAD_MISS[1] to 1 at AHEAD_MISS[0]), `miss`
+    the clearance [m] by which the heading line passes the obstacle's
+    closest point: eq 12 turns the vehicle round obstacles in or near its
+    path, and leaves those it passes obliquely and wide to eq 14."""
+    return _blocking_weight(entries(l_a), entries(n), entries(r_g), ahead, miss)
 
 
 def _boundary_following(
@@ -285,7 +298,14 @@ def obstacle_field(
         l_a, l_o, speed, r, params.c, params.r_l, params.tapered_range
     )
     if params.follow_blocking_only:
-        F = _scaled(F, _blocking_weight(l_a, n, r_g, params.follow_ahead_only))
+        # The heading line's clearance from the closest point, |r_o × l_a| − ρ.
+        miss = (
+            norm(_cross(r_o, l_a)) - collision_radius
+            if params.follow_ahead_only
+            else math.inf
+        )
+        weight = _blocking_weight(l_a, n, r_g, params.follow_ahead_only, miss)
+        F = _scaled(F, weight)
     F_a = _collision_avoidance(l_a, n, l_o, r, params.c_perp, params.r_b)
     if params.hover_fade and speed < params.fade_speed:
         F_a = _scaled(F_a, speed / params.fade_speed)

@@ -35,12 +35,59 @@ def attitude_gains(
     return J * w * w, 2.0 * params.attitude_damping_ratio * w * J
 
 
+def _delivered_scale(F_x, F_y, F_z, level, weight, params: NavigatorParams):
+    """The largest k ∈ (0, 1] for which k F is deliverable: T(k) = (k F_z +
+    m g)/ℓ ≥ T_min gives k ≤ (m g − T_min ℓ)/(−F_z), and K_Pv k |F_h| /
+    T(k) ≤ max_tilt gives k ≤ max_tilt m g / (K_Pv |F_h| ℓ − max_tilt F_z)."""
+    k = 1.0
+    if F_z + weight < params.min_thrust_fraction * weight * level:
+        k = (weight - params.min_thrust_fraction * weight * level) / (-F_z)
+    f_h = params.K_Pv * sqrt(F_x * F_x + F_y * F_y)
+    if f_h * level * k > params.max_tilt * (k * F_z + weight):
+        k = params.max_tilt * weight / (f_h * level - params.max_tilt * F_z)
+    return k
+
+
+def _brake_first(F, v, level, weight, params: NavigatorParams) -> tuple:
+    """F_n = b + q, b its part along −v (braking), delivered as b + k q with
+    the largest deliverable k ∈ [0, 1]; b alone scaled if even b is not."""
+    F_x, F_y, F_z = F
+    speed_sq = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+    along = (F_x * v[0] + F_y * v[1] + F_z * v[2]) / speed_sq if speed_sq > 0 else 0
+    if along >= 0.0:  # nothing brakes: one scale for all of F_n
+        k = _delivered_scale(F_x, F_y, F_z, level, weight, params)
+        return k * F_x, k * F_y, k * F_z
+    b = (along * v[0], along * v[1], along * v[2])
+    k_b = _delivered_scale(*b, level, weight, params)
+    if k_b < 1.0:
+        return k_b * b[0], k_b * b[1], k_b * b[2]
+    q = (F_x - b[0], F_y - b[1], F_z - b[2])
+    k = 1.0
+    T_min = params.min_thrust_fraction * weight * level
+    if F_z + weight < T_min:  # T is linear in k
+        k = (b[2] + weight - T_min) / (-q[2])
+    # K_Pv² ℓ² |b_h + k q_h|² ≤ max_tilt² (b_z + k q_z + m g)²: a k² + 2β k + γ
+    # ≤ 0 with γ ≤ 0 (b is deliverable); its crossing to > 0 is the root
+    # (−β + √(β² − aγ))/a = −γ/(β + √(β² − aγ)) whatever the sign of a.
+    K2 = (params.K_Pv * level) ** 2
+    t2 = params.max_tilt**2
+    lift = b[2] + weight
+    a = K2 * (q[0] * q[0] + q[1] * q[1]) - t2 * q[2] * q[2]
+    beta = K2 * (b[0] * q[0] + b[1] * q[1]) - t2 * q[2] * lift
+    gamma = K2 * (b[0] * b[0] + b[1] * b[1]) - t2 * lift * lift
+    if a * k * k + 2.0 * beta * k + gamma > 0.0:
+        root = beta + sqrt(beta * beta - a * gamma)
+        k = -gamma / root if root > 0.0 else 0.0 * root
+    return b[0] + k * q[0], b[1] + k * q[1], b[2] + k * q[2]
+
+
 def attitude_setpoint(
     F_n: np.ndarray,
     attitude: np.ndarray,
     yaw_desired,
     vehicle: Vehicle,
     params: NavigatorParams,
+    v: np.ndarray | None = None,
 ) -> np.ndarray:
     """Eq 21 (after) – 24: [T, roll_d, pitch_d, yaw_d] from F_n.
 
@@ -53,33 +100,32 @@ def attitude_setpoint(
 
     The vehicle can deliver only thrusts T ≥ min_thrust_fraction·m·g and
     tilts |f|/T ≤ max_tilt. When F_n asks for more, all of F_n is scaled
-    by the largest k ∈ (0, 1] it can deliver. Limiting the tilt or the
-    thrust alone would deliver one part of F_n in full and the other in
-    part: the delivered force would turn away from F_n (towards free fall
-    when F_n pulls down), and the terms of F_n that do no work (⟂ v,
-    eq 11–15) would start doing work. Scaling keeps F_n's direction:
-    T(k) = (k F_z + m g)/ℓ ≥ T_min gives k ≤ (m g − T_min ℓ)/(−F_z), and
-    K_Pv k |F_h| / T(k) ≤ max_tilt gives
-    k ≤ max_tilt m g / (K_Pv |F_h| ℓ − max_tilt F_z).
+    by the largest k ∈ (0, 1] it can deliver (`_delivered_scale`). Limiting
+    the tilt or the thrust alone would deliver one part of F_n in full and
+    the other in part: the delivered force would turn away from F_n
+    (towards free fall when F_n pulls down), and the terms of F_n that do
+    no work (⟂ v, eq 11–15) would start doing work. Scaling keeps F_n's
+    direction. With `params.brake_first` and the velocity `v`, F_n's part
+    along −v is delivered first and the rest scaled into what remains
+    (`_brake_first`): the terms ⟂ v still do no work, and the braking that
+    a large ⟂ command would otherwise scale away is kept.
     """
     roll, pitch, yaw = entries(attitude)
-    F_x, F_y, F_z = entries(F_n)
+    F = entries(F_n)
     weight = vehicle.mass * GRAVITY
     level = 1.0
     if params.tilt_compensation:
         level = cos(roll) * cos(pitch)
         if level < cos(params.max_tilt):  # also keeps T > 0 upside down
             level = cos(params.max_tilt) + 0.0 * level
-    T_min = params.min_thrust_fraction * weight
-    k = 1.0
-    if F_z + weight < T_min * level:
-        k = (weight - T_min * level) / (-F_z)
-    f_h = params.K_Pv * sqrt(F_x * F_x + F_y * F_y)
-    if f_h * level * k > params.max_tilt * (k * F_z + weight):
-        k = params.max_tilt * weight / (f_h * level - params.max_tilt * F_z)
-    T = (k * F_z + weight) / level
-    f_x = params.K_Pv * k * F_x
-    f_y = params.K_Pv * k * F_y
+    if params.brake_first and v is not None:
+        F_x, F_y, F_z = _brake_first(F, entries(v), level, weight, params)
+    else:
+        k = _delivered_scale(*F, level, weight, params)
+        F_x, F_y, F_z = k * F[0], k * F[1], k * F[2]
+    T = (F_z + weight) / level
+    f_x = params.K_Pv * F_x
+    f_y = params.K_Pv * F_y
     c, s = cos(yaw), sin(yaw)
     pitch_d = (c * f_x + s * f_y) / T
     roll_d = -(-s * f_x + c * f_y) / T

@@ -92,7 +92,7 @@ def AttitudePD_(T):
             attitude, rates = x[ATTITUDE], x[ANGULAR_RATE]
             yaw_d = desired_yaw(x[VELOCITY], attitude[2], self.params)
             setpoint = attitude_setpoint(
-                F_n, attitude, yaw_d, self.vehicle, self.params
+                F_n, attitude, yaw_d, self.vehicle, self.params, x[VELOCITY]
             )
             tau = attitude_pd_torque(attitude, rates, setpoint[1:4], self.K_P, self.K_D)
             return np.concatenate([setpoint[:1], tau]), setpoint
