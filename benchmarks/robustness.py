@@ -2,12 +2,14 @@
 
     python benchmarks/robustness.py [--n 100] [--methods mfi] [--workers 2]
                                     [--only TEXT] [--out out/robustness]
+                                    [--set YAML] [--override FILE]
 
 For each imperfection and each of its levels (LEVELS, from none to past the
 point where it breaks) this flies the Monte Carlo sweep (`sweep.run_sweep`,
 the same random fields as `mfi-drake sweep` at the default density, seed 0)
-with that `faults:` block on every field, i.e. what
-`mfi-drake sweep --faults '{...}' --out DIR` does level by level. All
+with that `faults:` block on every field (after the --set / --override
+layers, e.g. a `tune` winner), i.e. what `mfi-drake sweep [--override
+FILE] --faults '{...}' --out DIR` does level by level. All
 levels share DIR/results.jsonl, keyed by the fault variant, so an
 interrupted run resumes where it stopped.
 
@@ -25,15 +27,18 @@ import argparse
 import os
 from functools import partial
 
+from mfi_drake.app.cli import add_overrides, overrides
 from mfi_drake.config.faults import Faults
 from mfi_drake.files import write_json, write_text
 from mfi_drake.studies.sweep import (
     SweepConfig,
     dask_client,
     fault_variant,
+    override_variant,
     rate_cell,
     run_sweep,
     with_faults,
+    with_overrides,
 )
 
 # imperfection -> (its unit, its levels as Faults), flown in this order (motor
@@ -127,6 +132,12 @@ def robustness_table(results: dict, methods: list[str]) -> str:
     return "\n".join(lines)
 
 
+def _layered(layers: list, faults: Faults | None, scenario):
+    """A field with the command's overrides, then the cell's faults."""
+    scenario = with_overrides(scenario, layers)
+    return scenario if faults is None else with_faults(scenario, faults)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=100, help="fields per cell")
@@ -138,8 +149,10 @@ def main() -> None:
         help="fly only the imperfections whose name contains this text "
         "(e.g. 'state estimate'), besides the fault-free cell",
     )
+    add_overrides(parser)
     args = parser.parse_args()
     methods = args.methods.split(",")
+    layers = overrides(args)
     cells = [("none", None, None)] + [
         (name, level, faults)
         for name, (_, levels) in LEVELS.items()
@@ -149,14 +162,15 @@ def main() -> None:
     results: dict = {}
     with dask_client(args.workers, None) as client:
         for name, level, faults in cells:
+            variants = [override_variant(layers) if layers else ""]
+            variants.append("" if faults is None else fault_variant(faults))
             config = SweepConfig(
                 n=args.n,
                 methods=methods,
                 out=args.out,
-                variant="" if faults is None else fault_variant(faults),
+                variant=",".join(v for v in variants if v),
             )
-            modify = None if faults is None else partial(with_faults, faults=faults)
-            run = run_sweep(config, client, modify)
+            run = run_sweep(config, client, partial(_layered, layers, faults))
             stats = {m: run.summary["methods"][m] for m in methods}
             if faults is None:
                 results[name] = stats

@@ -2,7 +2,8 @@
 diagram, where a sweep flight's time goes, and sweep flights per minute.
 
     python benchmarks/throughput.py [--repeats 7] [--duration S] [--split 8]
-        [--fields 40] [--compare 20] [--seed S] [--page docs/performance.md]
+        [--fields 40] [--compare 20] [--override FILE] [--seed S]
+        [--page docs/performance.md]
 
 Prints, all measured in this run (the machine's load average with each):
 
@@ -28,7 +29,8 @@ Prints, all measured in this run (the machine's load average with each):
 4. CPU per flight of each method (mfi, mfi-paper, apf, gf) on the same
    --compare fresh fields at the default density, flown in turn in this
    process until settled, as a sweep flies them; steps and µs per step,
-   and each method's CPU over GF's.
+   and each method's CPU over GF's. With --override (a `tune` winner
+   file), every method flies these fields with its tuned gains.
 
 With --page, the printed text is also written into that page between the
 lines `<!-- BEGIN throughput -->` and `<!-- END throughput -->`, with the
@@ -49,7 +51,7 @@ from pydrake.examples import StabilizingLQRController
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from mfi_drake.config.scenario import Scenario, scenario_to_yaml
+from mfi_drake.config.scenario import Scenario, read_override, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_section
 from mfi_drake.flight.diagram import build_diagram, make_plant
@@ -60,6 +62,7 @@ from mfi_drake.studies.sweep import (
     field_reference,
     run_sweep,
     task_scenario,
+    with_overrides,
 )
 from mfi_drake.world import generator
 from mfi_drake.world.validation import load_scenario
@@ -214,9 +217,12 @@ def split(fields: int, seed: int, say) -> dict[str, float]:
 COMPARED = ("mfi", "mfi-paper", "apf", "gf")
 
 
-def by_method(fields: int, seed: int, say) -> dict[str, float]:
+def by_method(
+    fields: int, seed: int, say, layers: list[tuple[str, str]] = ()
+) -> dict[str, float]:
     """Part 4: CPU per flight of each method on the same fields (in this
-    process, each field's methods flown in turn, until settled)."""
+    process, each field's methods flown in turn, until settled), each field
+    with the override `layers`."""
     cpu = dict.fromkeys(COMPARED, 0.0)
     steps = dict.fromkeys(COMPARED, 0)
     with tempfile.TemporaryDirectory() as out:
@@ -224,6 +230,7 @@ def by_method(fields: int, seed: int, say) -> dict[str, float]:
             scenario = generator.random_field(
                 seed, index, generator.DEFAULT_DENSITY, out
             )
+            scenario = with_overrides(scenario, layers)
             for method in COMPARED:
                 flight = fly(build_diagram(scenario, method), until_settled=True)
                 cpu[method] += flight.cpu_time
@@ -231,7 +238,7 @@ def by_method(fields: int, seed: int, say) -> dict[str, float]:
     say(
         f"4. CPU per flight by method, the same {fields} fresh fields at density "
         f"{generator.DEFAULT_DENSITY:g} (seed {seed}), flown in turn until "
-        f"settled ({load()}):"
+        f"settled ({load()}){', with ' + layers[0][0] if layers else ''}:"
     )
     for method in COMPARED:
         say(
@@ -308,6 +315,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--seed", type=int, help="first seed of the fresh fields (default: the time)"
     )
+    parser.add_argument(
+        "--override", help="a `tune` winner file layered on part 4's fields"
+    )
     parser.add_argument("--page", help="a page to write the output into")
     parser.add_argument(
         "--one-sweep", nargs=3, type=int, help=argparse.SUPPRESS
@@ -336,7 +346,8 @@ def main(argv: list[str] | None = None) -> dict:
     result = against_cpp(scenario, args.repeats, say)
     result["split"] = split(args.split, seed, say)
     result["rates"] = sweeps(args.fields, seed + 1, say)
-    result["methods"] = by_method(args.compare, seed + 3, say)
+    layers = [read_override(args.override)] if args.override else []
+    result["methods"] = by_method(args.compare, seed + 3, say, layers)
     if args.page:
         write_section(args.page, "throughput", "```\n" + "\n".join(lines) + "\n```")
     return result
