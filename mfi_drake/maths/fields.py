@@ -11,7 +11,6 @@ r_g = p_g − p.
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -186,12 +185,17 @@ def _ramp(x, zero, one):
     return min(1.0, max(0.0, (x - zero) / (one - zero)))
 
 
-def _blocking_weight(l_a, n, r_g, ahead: bool = False, miss=math.inf):
+def _blocking_weight(l_a, n, r_g, ahead: bool = False, r_o=None, radius=0.0):
     along = dot(l_a, n)
     if along >= 0.0:
         if not ahead:
             return 1.0
-        return max(_ramp(along, *AHEAD), _ramp(miss, AHEAD_MISS[1], AHEAD_MISS[0]))
+        weight = _ramp(along, *AHEAD)
+        if r_o is None:
+            return weight
+        # The heading line's clearance from the closest point, |r_o × l_a| − ρ.
+        miss = norm(_cross(r_o, l_a)) - radius
+        return max(weight, _ramp(miss, AHEAD_MISS[1], AHEAD_MISS[0]))
     distance = norm(r_g)
     if distance < TINY:
         return 0.0
@@ -199,18 +203,25 @@ def _blocking_weight(l_a, n, r_g, ahead: bool = False, miss=math.inf):
 
 
 def blocking_weight(
-    l_a: np.ndarray, n: np.ndarray, r_g: np.ndarray, ahead: bool = False, miss=math.inf
+    l_a: np.ndarray,
+    n: np.ndarray,
+    r_g: np.ndarray,
+    ahead: bool = False,
+    r_o: np.ndarray | None = None,
+    radius: float = 0.0,
 ):
     """Repair (a): the weight of eq 12 for an obstacle. 1 while the vehicle
     approaches it (l_a·n ≥ 0); receding, 1 only if it lies toward the goal,
     n·l_g ≥ 0.1, fading to 0 at n·l_g = 0. Continuous: eq 12 vanishes at
     l_a·n = 0 whatever the weight. With `ahead` (repair (h)) an approached
     obstacle weighs max(ramp of l_a·n from 0 at AHEAD[0] to 1 at AHEAD[1],
-    ramp of `miss` from 0 at AHEAD_MISS[1] to 1 at AHEAD_MISS[0]), `miss`
-    the clearance [m] by which the heading line passes the obstacle's
-    closest point: eq 12 turns the vehicle round obstacles in or near its
-    path, and leaves those it passes obliquely and wide to eq 14."""
-    return _blocking_weight(entries(l_a), entries(n), entries(r_g), ahead, miss)
+    ramp of m from 0 at AHEAD_MISS[1] to 1 at AHEAD_MISS[0]), m = |r_o ×
+    l_a| − `radius` the clearance [m] by which the heading line passes the
+    obstacle's closest point r_o (the angle ramp alone without r_o): eq 12
+    turns the vehicle round obstacles in or near its path, and leaves those
+    it passes obliquely and wide to eq 14."""
+    r_o = None if r_o is None else entries(r_o)
+    return _blocking_weight(entries(l_a), entries(n), entries(r_g), ahead, r_o, radius)
 
 
 def _boundary_following(
@@ -298,13 +309,9 @@ def obstacle_field(
         l_a, l_o, speed, r, params.c, params.r_l, params.tapered_range
     )
     if params.follow_blocking_only:
-        # The heading line's clearance from the closest point, |r_o × l_a| − ρ.
-        miss = (
-            norm(_cross(r_o, l_a)) - collision_radius
-            if params.follow_ahead_only
-            else math.inf
+        weight = _blocking_weight(
+            l_a, n, r_g, params.follow_ahead_only, r_o, collision_radius
         )
-        weight = _blocking_weight(l_a, n, r_g, params.follow_ahead_only, miss)
         F = _scaled(F, weight)
     F_a = _collision_avoidance(l_a, n, l_o, r, params.c_perp, params.r_b)
     if params.hover_fade and speed < params.fade_speed:
