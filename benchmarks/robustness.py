@@ -29,6 +29,7 @@ from functools import partial
 
 from mfi_drake.app.cli import add_overrides, overrides
 from mfi_drake.config.faults import Faults
+from mfi_drake.config.scenario import ScenarioError
 from mfi_drake.files import write_json, write_text
 from mfi_drake.studies.sweep import (
     SweepConfig,
@@ -152,7 +153,10 @@ def main() -> None:
     add_overrides(parser)
     args = parser.parse_args()
     methods = args.methods.split(",")
-    layers = overrides(args)
+    try:
+        layers = overrides(args)
+    except ScenarioError as e:
+        parser.error(str(e))
     cells = [("none", None, None)] + [
         (name, level, faults)
         for name, (_, levels) in LEVELS.items()

@@ -51,7 +51,12 @@ from pydrake.examples import StabilizingLQRController
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from mfi_drake.config.scenario import Scenario, read_override, scenario_to_yaml
+from mfi_drake.config.scenario import (
+    Scenario,
+    ScenarioError,
+    read_override,
+    scenario_to_yaml,
+)
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_section
 from mfi_drake.flight.diagram import build_diagram, make_plant
@@ -330,6 +335,10 @@ def main(argv: list[str] | None = None) -> dict:
         if getattr(args, name) < 1:
             parser.error(f"--{name} = {getattr(args, name)}: must be >= 1")
     scenario = load_scenario(args.scenario)
+    try:  # read before anything is measured: a bad file costs no run
+        layers = [read_override(args.override)] if args.override else []
+    except ScenarioError as e:
+        parser.error(f"--override: {e}")
     if args.duration is not None:
         if not args.duration > 0.0:
             parser.error(f"--duration = {args.duration}: must be > 0")
@@ -346,7 +355,6 @@ def main(argv: list[str] | None = None) -> dict:
     result = against_cpp(scenario, args.repeats, say)
     result["split"] = split(args.split, seed, say)
     result["rates"] = sweeps(args.fields, seed + 1, say)
-    layers = [read_override(args.override)] if args.override else []
     result["methods"] = by_method(args.compare, seed + 3, say, layers)
     if args.page:
         write_section(args.page, "throughput", "```\n" + "\n".join(lines) + "\n```")
