@@ -157,12 +157,18 @@ def test_brake_first_keeps_the_braking_and_scales_the_rest_by_hand():
         np.testing.assert_allclose(delivered, limit * np.array(F_n) / np.hypot(2, 10))
 
 
+def _binds(T, roll, pitch, T_min) -> bool:
+    return T == pytest.approx(T_min) or np.hypot(roll, pitch) == pytest.approx(
+        P.max_tilt
+    )
+
+
 def test_brake_first_adds_no_work_and_respects_the_limits():
-    """Any F_n, v, yaw: the delivered force is b' + k q with b' the braking
-    part of F_n (scaled only when it alone exceeds the limits) and q the
-    rest: its part ⟂ v is parallel to F_n's (the ⟂ terms do no work) and
-    its part along v never exceeds F_n's; the thrust floor and tilt limit
-    hold, and one binds whenever F_n is not delivered in full."""
+    """Any F_n, v, yaw: the delivered force is s b + k q with b the braking
+    part of F_n and q the rest: its part ⟂ v is parallel to F_n's (the ⟂
+    terms do no work) and its part along v never exceeds F_n's; the thrust
+    floor and tilt limit hold. s < 1 only where s b alone is on a limit; k
+    < 1 only where s b + k q is."""
     vehicle = VEHICLES["drake_default"]
     params = dataclasses.replace(P, brake_first=True)
     T_min = P.min_thrust_fraction * vehicle.weight
@@ -180,14 +186,43 @@ def test_brake_first_adds_no_work_and_respects_the_limits():
             perp, perp_n = delivered - (delivered @ l_v) * l_v, F_n - (F_n @ l_v) * l_v
             np.testing.assert_allclose(np.cross(perp, perp_n), 0, atol=1e-9 * scale**2)
             assert perp @ perp_n >= -1e-12
-            if F_n @ l_v < 0:
-                assert F_n @ l_v - 1e-9 <= delivered @ l_v <= 1e-12
             assert T >= T_min * (1 - 1e-12)
             assert np.hypot(roll, pitch) <= P.max_tilt * (1 + 1e-9)
+            rest_in_full = np.allclose(perp, perp_n, atol=1e-9 * scale)
+            if F_n @ l_v < 0:
+                assert F_n @ l_v - 1e-9 <= delivered @ l_v <= 1e-12
+                s = (delivered @ l_v) / (F_n @ l_v)
+                if s < 1 - 1e-9:  # b scaled: s b alone is on a limit
+                    b_s = s * (F_n @ l_v) * l_v
+                    T_b, roll_b, pitch_b, _ = attitude_setpoint(
+                        b_s, np.array([0, 0, yaw]), 0.0, vehicle, params, v
+                    )
+                    assert _binds(T_b, roll_b, pitch_b, T_min)
+                    if rest_in_full:
+                        continue
             if not np.allclose(delivered, F_n, atol=1e-9 * scale):
-                assert T == pytest.approx(T_min) or np.hypot(
-                    roll, pitch
-                ) == pytest.approx(P.max_tilt)
+                assert _binds(T, roll, pitch, T_min)
+
+
+def test_brake_first_is_continuous_where_the_braking_alone_reaches_a_limit():
+    """Level, v along +x, F_n = (−B, 0, Z) with Z > 0 lifting: B just under
+    and just over m g max_tilt (the braking alone at the tilt limit) give
+    the same delivered force, (−B or −limit, 0, Z). It once dropped the
+    lift on the far side, a 17 → 7 N thrust jump the integrator chattered
+    on."""
+    vehicle = VEHICLES["drake_default"]
+    params = dataclasses.replace(P, brake_first=True)
+    limit = P.max_tilt * vehicle.weight
+    v = np.array([1.0, 0.0, 0.0])
+    for B in (limit * (1 - 1e-9), limit * (1 + 1e-9)):
+        setpoint = attitude_setpoint(
+            np.array([-B, 0.0, 3.0]), np.zeros(3), 0, vehicle, params, v
+        )
+        np.testing.assert_allclose(
+            _delivered(*setpoint[:3], 0.0, vehicle.weight),
+            [-limit, 0.0, 3.0],
+            rtol=1e-8,
+        )
 
 
 @pytest.mark.parametrize("name", sorted(VEHICLES))

@@ -49,26 +49,32 @@ def _delivered_scale(F_x, F_y, F_z, level, weight, params: NavigatorParams):
 
 
 def _brake_first(F, v, level, weight, params: NavigatorParams) -> tuple:
-    """F_n = b + q, b its part along −v (braking), delivered as b + k q with
-    the largest deliverable k ∈ [0, 1]; b alone scaled if even b is not."""
+    """F_n = b + q, b its part along −v (braking), delivered as s b + k q:
+    s ∈ (0, 1] scales b alone into the limits (1 when it fits), then k ∈
+    [0, 1] is the largest that keeps s b + k q deliverable. Where b alone
+    does not fit, q is still added: a q that lifts makes room for tilt, so
+    dropping it would make the delivered force jump as b crosses the
+    limit (an integrator then chatters on that surface: tree_on_ground
+    took 2000 steps of 10 µs there)."""
     F_x, F_y, F_z = F
     speed_sq = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
     along = (F_x * v[0] + F_y * v[1] + F_z * v[2]) / speed_sq if speed_sq > 0 else 0
     if along >= 0.0:  # nothing brakes: one scale for all of F_n
         k = _delivered_scale(F_x, F_y, F_z, level, weight, params)
         return k * F_x, k * F_y, k * F_z
+    q = (F_x - along * v[0], F_y - along * v[1], F_z - along * v[2])
+    along = along * _delivered_scale(
+        along * v[0], along * v[1], along * v[2], level, weight, params
+    )
     b = (along * v[0], along * v[1], along * v[2])
-    k_b = _delivered_scale(*b, level, weight, params)
-    if k_b < 1.0:
-        return k_b * b[0], k_b * b[1], k_b * b[2]
-    q = (F_x - b[0], F_y - b[1], F_z - b[2])
     k = 1.0
     T_min = params.min_thrust_fraction * weight * level
-    if F_z + weight < T_min:  # T is linear in k
+    if q[2] < 0.0 and b[2] + q[2] + weight < T_min:  # T is linear in k
         k = (b[2] + weight - T_min) / (-q[2])
     # K_Pv² ℓ² |b_h + k q_h|² ≤ max_tilt² (b_z + k q_z + m g)²: a k² + 2β k + γ
     # ≤ 0 with γ ≤ 0 (b is deliverable); its crossing to > 0 is the root
-    # (−β + √(β² − aγ))/a = −γ/(β + √(β² − aγ)) whatever the sign of a.
+    # (−β + √(β² − aγ))/a = −γ/(β + √(β² − aγ)), each form used where it
+    # does not cancel (β < 0 with a crossing in (0, 1] needs a > 0).
     K2 = (params.K_Pv * level) ** 2
     t2 = params.max_tilt**2
     lift = b[2] + weight
@@ -76,8 +82,14 @@ def _brake_first(F, v, level, weight, params: NavigatorParams) -> tuple:
     beta = K2 * (b[0] * q[0] + b[1] * q[1]) - t2 * q[2] * lift
     gamma = K2 * (b[0] * b[0] + b[1] * b[1]) - t2 * lift * lift
     if a * k * k + 2.0 * beta * k + gamma > 0.0:
-        root = beta + sqrt(beta * beta - a * gamma)
-        k = -gamma / root if root > 0.0 else 0.0 * root
+        discriminant = beta * beta - a * gamma
+        root = sqrt(discriminant) if discriminant > 0.0 else 0.0 * discriminant
+        if beta >= 0.0:
+            k = -gamma / (beta + root) if beta + root > 0.0 else 0.0 * root
+        elif a > 0.0:  # else only a rounding of γ above 0 got here: keep k
+            k = (root - beta) / a
+    if k < 0.0:  # a rounding: b is on a limit
+        k = 0.0 * k
     return b[0] + k * q[0], b[1] + k * q[1], b[2] + k * q[2]
 
 
