@@ -27,6 +27,7 @@ from mfi_drake.config.scenario import (
     Scenario,
     Sphere,
     parse_scenario,
+    read_override,
 )
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import simulate
@@ -349,6 +350,24 @@ def test_the_depth_camera_form_is_a_rig_of_one_camera(write_yaml):
     np.testing.assert_allclose(
         second.X_MC.rotation().matrix(), R_LC.ToRotationMatrix().matrix(), atol=1e-12
     )
+
+
+def test_the_rig3_preset_looks_ahead_and_to_both_sides():
+    """scenarios/sensors/rig3.yaml, layered on a scenario: three cameras
+    whose optical axes (camera z) are body +x, +y and −y, by hand from
+    R = Rz Ry Rx: Rx(−90°) e_z = e_y, Rz(180°) e_y = −e_y."""
+    override = read_override(os.path.join(SCENARIOS, "sensors", "rig3.yaml"))
+    scenario = parse_scenario(os.path.join(SCENARIOS, "planar_wall.yaml"), [override])
+    rig = scenario.sensor
+    assert isinstance(rig, DepthCameraRig) and rig.rate_hz == 20.0
+    assert scenario.navigator.lag_drag
+    axes = [m.X_MC.rotation().matrix()[:, 2] for m in mounted_cameras(rig)]
+    np.testing.assert_allclose(axes, [[1, 0, 0], [0, 1, 0], [0, -1, 0]], atol=1e-12)
+    assert [(c.width, c.height) for c in rig.cameras] == [
+        (160, 120),
+        (80, 60),
+        (80, 60),
+    ]
 
 
 @pytest.mark.parametrize("pan,tilt", [(0.0, 0.0), (0.7, 0.3), (-2.5, -1.2)])
