@@ -146,6 +146,38 @@ def test_wall_fields_join_the_training_fields_and_a_negative_count_is_refused(
     assert not (tmp_path / "t").exists()
 
 
+def test_moving_fields_join_the_training_fields_and_bad_motion_is_refused(
+    tmp_path, capsys
+):
+    """--moving: each random field again, named *_moving, its obstacles
+    those of the static field with round(share × count) of them circling."""
+    config = TuneConfig(
+        methods=["gf"], n=2, densities=[0.1], moving=0.3, obstacle_speed=0.5,
+        out=str(tmp_path),
+    )  # fmt: skip
+    fields = training_fields(config)
+    names = [s.name for s in fields]
+    assert names == [
+        "field_d0.1_s100_i0", "field_d0.1_s100_i1",
+        "field_d0.1_s100_i0_moving", "field_d0.1_s100_i1_moving",
+    ]  # fmt: skip
+    for static, moving in zip(fields[:2], fields[2:], strict=True):
+        assert [o.position for o in moving.obstacles] == [
+            o.position for o in static.obstacles
+        ]
+        assert not any(o.motion for o in static.obstacles)
+        circling = sum(bool(o.motion) for o in moving.obstacles)
+        assert 0 < circling <= round(0.3 * len(static.obstacles))
+    for flags, named in (
+        (["--moving", "1.5"], "--moving = 1.5"),
+        (["--moving", "0.3"], "--obstacle-speed = 0.0"),
+    ):
+        assert main(["tune", *flags, "--out", str(tmp_path / "t")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and named in err
+    assert not (tmp_path / "t").exists()
+
+
 def test_a_method_without_gains_is_refused(toy_dir, threads_client):
     (toy_dir / "plain.py").write_text(
         "def field(position, velocity, obstacle_points, goal):\n    return 0 * goal\n"

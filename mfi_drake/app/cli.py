@@ -292,6 +292,7 @@ def cmd_tune(args) -> int:
 
     methods = parse_methods(args.methods)
     _check_sweep_numbers(args)
+    _check_motion_numbers(args)
     config = TuneConfig(
         methods=methods,
         candidates=args.candidates,
@@ -300,6 +301,8 @@ def cmd_tune(args) -> int:
         densities=list(dict.fromkeys(args.density)),
         paper_scenarios=args.paper_scenarios,
         walls=args.walls,
+        moving=args.moving,
+        obstacle_speed=args.obstacle_speed,
         held_out_seed=args.held_out_seed,
         out=args.out,
     )
@@ -348,6 +351,24 @@ def cmd_analyze(args) -> int:
         print(summary(report))
         print(f"wrote {out}/analysis.json and {', '.join(report['figures'])} figures")
     return 0
+
+
+def add_motion(parser: argparse.ArgumentParser, what: str) -> None:
+    """--moving and --obstacle-speed (`generator.set_in_motion`)."""
+    parser.add_argument(
+        "--moving",
+        type=float,
+        default=0.0,
+        metavar="SHARE",
+        help=f"{what}, circling at --obstacle-speed (default 0: none; docs/dynamic.md)",
+    )
+    parser.add_argument(
+        "--obstacle-speed",
+        type=float,
+        default=0.0,
+        metavar="M/S",
+        help="speed of the moving obstacles",
+    )
 
 
 def add_overrides(parser: argparse.ArgumentParser) -> None:
@@ -436,21 +457,7 @@ def make_parser() -> argparse.ArgumentParser:
         f"(default {DEFAULT_DENSITY:g}); several values sweep them all",
     )
     sweep.add_argument("--sensor", choices=["sphere", "depth"], default="sphere")
-    sweep.add_argument(
-        "--moving",
-        type=float,
-        default=0.0,
-        metavar="SHARE",
-        help="share of each field's obstacles that move, circling at "
-        "--obstacle-speed (default 0: none; docs/dynamic.md)",
-    )
-    sweep.add_argument(
-        "--obstacle-speed",
-        type=float,
-        default=0.0,
-        metavar="M/S",
-        help="speed of the moving obstacles",
-    )
+    add_motion(sweep, "share of each field's obstacles that move")
     sweep.add_argument(
         "--workers",
         type=int,
@@ -500,6 +507,7 @@ def make_parser() -> argparse.ArgumentParser:
     tune.add_argument(
         "--walls", type=int, default=0, help="wall fields that join training"
     )
+    add_motion(tune, "each random training field also flown with this share moving")
     tune.add_argument(
         "--held-out-seed", type=int, help="seed of the held-out fields (≠ --seed)"
     )

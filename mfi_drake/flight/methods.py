@@ -70,10 +70,10 @@ def _mfi_gains(key: str) -> tuple[Gain, ...]:
     eq 17's K_ω. The cruise speed v_d stays 1 m/s for every method."""
     return (
         Gain(f"{key}.c", 0.5, 16.0),
-        Gain(f"{key}.r_l", 0.5, 2.5),
+        Gain(f"{key}.r_l", 0.3, 2.5),
         Gain(f"{key}.c_perp", 0.02, 1.0),
         Gain(f"{key}.r_b", 0.2, 0.9, log=False, fraction_of=f"{key}.r_l"),
-        Gain(f"{key}.K_omega", 0.5, 4.0),
+        Gain(f"{key}.K_omega", 0.25, 4.0),
     )
 
 

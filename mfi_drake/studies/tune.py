@@ -5,7 +5,11 @@ The protocol, the same for every method and fixed before any result is seen:
 1. Training fields: `n` random fields per density at the training seed
    (`world.generator`), optionally with `walls` wall fields of that seed
    (one long wall across the line: structure the random fields lack) and
-   the paper's scenarios added. Every method flies exactly these fields.
+   the paper's scenarios added, and with `moving` > 0 each random field a
+   second time with that share of its obstacles circling at
+   `obstacle_speed` (`generator.set_in_motion`, as `sweep --moving`): the
+   closing speeds that static fields lack. Every method flies exactly
+   these fields.
 2. Search over the method's documented free gains (`methods.Gain`), in the
    unit cube of their ranges (log-uniform where a gain is a scale):
    candidate 0 is the method's current defaults; then a Latin hypercube of
@@ -51,7 +55,7 @@ from mfi_drake.studies.sweep import (
     read_results,
     with_overrides,
 )
-from mfi_drake.world.generator import wall_field
+from mfi_drake.world.generator import set_in_motion, wall_field
 from mfi_drake.world.validation import load_scenario
 
 REFINE_SIGMAS = (0.15, 0.07)  # of the unit range, one per refinement round
@@ -70,6 +74,8 @@ class TuneConfig:
     densities: list[float] = field(default_factory=lambda: [0.1, 0.2])
     paper_scenarios: str | None = None  # a directory: its paper scenarios join
     walls: int = 0  # wall fields (`generator.wall_field`) that join training
+    moving: float = 0.0  # > 0: each random field also flown with this share moving
+    obstacle_speed: float = 0.0  # [m/s] of the moving obstacles
     held_out_seed: int | None = None  # fields never used for training
     out: str = "out/tune"
 
@@ -186,14 +192,29 @@ class Candidate:
 
 # --- the run ------------------------------------------------------------------------
 def training_fields(config: TuneConfig) -> list[Scenario]:
-    """The sweep's fields of the training seed (meshes under DIR/fields), its
-    wall fields and the paper's scenarios if asked for."""
+    """The sweep's fields of the training seed (meshes under DIR/fields),
+    the same in motion, its wall fields and the paper's scenarios, each if
+    asked for."""
     like = SweepConfig(n=config.n, seed=config.seed, out=config.out)
     fields = [
         make_field(like, density, index)
         for density in config.densities
         for index in range(config.n)
     ]
+    if config.moving > 0.0:
+        fields += [
+            dataclasses.replace(
+                set_in_motion(
+                    field,
+                    config.seed,
+                    k % config.n,
+                    config.moving,
+                    config.obstacle_speed,
+                ),
+                name=f"{field.name}_moving",
+            )
+            for k, field in enumerate(fields)
+        ]
     fields += [wall_field(config.seed, index) for index in range(config.walls)]
     if config.paper_scenarios:
         fields += [
