@@ -34,12 +34,10 @@ from mfi_drake.files import write_json, write_text
 from mfi_drake.studies.sweep import (
     SweepConfig,
     dask_client,
-    fault_variant,
-    override_variant,
+    layered,
     rate_cell,
     run_sweep,
-    with_faults,
-    with_overrides,
+    variant_name,
 )
 
 # imperfection -> (its unit, its levels as Faults), flown in this order (motor
@@ -133,12 +131,6 @@ def robustness_table(results: dict, methods: list[str]) -> str:
     return "\n".join(lines)
 
 
-def _layered(layers: list, faults: Faults | None, scenario):
-    """A field with the command's overrides, then the cell's faults."""
-    scenario = with_overrides(scenario, layers)
-    return scenario if faults is None else with_faults(scenario, faults)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=100, help="fields per cell")
@@ -166,15 +158,15 @@ def main() -> None:
     results: dict = {}
     with dask_client(args.workers, None) as client:
         for name, level, faults in cells:
-            variants = [override_variant(layers) if layers else ""]
-            variants.append("" if faults is None else fault_variant(faults))
             config = SweepConfig(
                 n=args.n,
                 methods=methods,
                 out=args.out,
-                variant=",".join(v for v in variants if v),
+                variant=variant_name(layers, faults),
             )
-            run = run_sweep(config, client, partial(_layered, layers, faults))
+            run = run_sweep(
+                config, client, partial(layered, overrides=layers, faults=faults)
+            )
             stats = {m: run.summary["methods"][m] for m in methods}
             if faults is None:
                 results[name] = stats

@@ -15,6 +15,7 @@ import pytest
 from mfi_drake.app.cli import main
 from mfi_drake.app.figures import plot_sweep
 from mfi_drake.config import scenario as sc
+from mfi_drake.config.faults import Faults
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.studies import sweep
 from mfi_drake.world import generator
@@ -339,3 +340,16 @@ def test_a_long_or_path_like_variant_names_its_failure_file_by_a_hash(tmp_path):
     for variant in ("x" * 200, "navigator: {c: 2}/x"):
         assert names[variant].startswith("variant-") and len(names[variant]) < 64
     assert names["x" * 200] != names["navigator: {c: 2}/x"]
+
+
+def test_variant_names_join_motion_overrides_and_faults_in_that_order():
+    """The names records are keyed by (resuming a sweep finds its flights by
+    them): each part as its own function names it, "" when none."""
+    set_text = [("--set", "navigator: {c: 2}")]
+    faults = Faults(position_noise_std=0.05)
+    motion = sweep.motion_variant(0.3, 0.5)
+    assert sweep.variant_name() == ""
+    assert sweep.variant_name(set_text, faults, motion) == (
+        "moving=0.3,obstacle_speed=0.5,navigator: {c: 2},position_noise_std=0.05"
+    )
+    assert sweep.variant_name(faults=faults) == "position_noise_std=0.05"

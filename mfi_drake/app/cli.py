@@ -12,7 +12,7 @@ import math
 import os
 import subprocess
 import sys
-from functools import partial, reduce
+from functools import partial
 
 from mfi_drake.config.scenario import ScenarioError, read_override
 from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
@@ -194,13 +194,11 @@ def cmd_sweep(args) -> int:
     from mfi_drake.studies.sweep import (
         SweepConfig,
         dask_client,
-        fault_variant,
+        layered,
         motion_variant,
-        override_variant,
         run_sweep,
         summary_table,
-        with_faults,
-        with_overrides,
+        variant_name,
     )
 
     methods = parse_methods(args.methods) if args.methods else list(METHODS)
@@ -216,20 +214,17 @@ def cmd_sweep(args) -> int:
         moving=args.moving,
         obstacle_speed=args.obstacle_speed,
     )
-    steps, variants = [], [motion_variant(args.moving, args.obstacle_speed)]
-    if args.overrides:
-        texts = overrides(args)
-        steps.append(partial(with_overrides, overrides=texts))
-        variants.append(override_variant(texts))
+    texts = overrides(args) if args.overrides else []
+    faults = None
     if args.faults is not None:
         try:
             faults = faults_from_yaml(args.faults)
         except ValueError as e:
             raise UsageError(f"--faults = {args.faults!r}: {e}") from None
-        steps.append(partial(with_faults, faults=faults))
-        variants.append(fault_variant(faults))
-    config.variant = ",".join(v for v in variants if v)
-    modify = partial(reduce, lambda scenario, step: step(scenario), steps)
+    config.variant = variant_name(
+        texts, faults, motion_variant(args.moving, args.obstacle_speed)
+    )
+    modify = partial(layered, overrides=texts, faults=faults)
     try:
         with dask_client(args.workers, args.scheduler) as client:
             run = run_sweep(config, client, modify)

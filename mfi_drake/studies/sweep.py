@@ -538,6 +538,31 @@ def with_overrides(scenario: Scenario, overrides: list[tuple[str, str]]) -> Scen
     return scenario
 
 
+def layered(
+    scenario: Scenario,
+    overrides: list[tuple[str, str]] = (),
+    faults: Faults | None = None,
+) -> Scenario:
+    """A field with a command's overrides layered on it, then its faults."""
+    scenario = with_overrides(scenario, overrides)
+    return scenario if faults is None else with_faults(scenario, faults)
+
+
+def variant_name(
+    overrides: list[tuple[str, str]] = (),
+    faults: Faults | None = None,
+    motion: str = "",
+) -> str:
+    """The sweep variant of a motion (`motion_variant`), overrides and
+    faults: their names joined by commas, "" for none of them."""
+    parts = [
+        motion,
+        override_variant(overrides) if overrides else "",
+        fault_variant(faults) if faults is not None else "",
+    ]
+    return ",".join(part for part in parts if part)
+
+
 def override_variant(overrides: list[tuple[str, str]]) -> str:
     """A name for a sweep variant of overrides: each --set text as given, each
     file as its name and a hash of its text (so a changed file is a new
