@@ -3,7 +3,7 @@ diagram, where a sweep flight's time goes, and sweep flights per minute.
 
     python benchmarks/throughput.py [--repeats 7] [--duration S] [--split 8]
         [--fields 40] [--compare 20] [--override FILE] [--seed S]
-        [--page docs/performance.md]
+        [--scenarios 'GLOB'] [--page docs/performance.md]
 
 Prints, all measured in this run (the machine's load average with each):
 
@@ -31,6 +31,10 @@ Prints, all measured in this run (the machine's load average with each):
    process until settled, as a sweep flies them; steps and µs per step,
    and each method's CPU over GF's. With --override (a `tune` winner
    file), every method flies these fields with its tuned gains.
+5. Every shipped scenario (scenarios/*.yaml, or --scenarios GLOB there)
+   flown as `mfi-drake run` flies it, best wall time of 2: its real-time
+   factor (simulated seconds per wall second, every vehicle of it at once)
+   and steps, marked where it is below REALTIME_BAR.
 
 With --page, the printed text is also written into that page between the
 lines `<!-- BEGIN throughput -->` and `<!-- END throughput -->`, with the
@@ -39,6 +43,7 @@ commit it ran at.
 
 import argparse
 import dataclasses
+import glob
 import io
 import os
 import subprocess
@@ -220,6 +225,7 @@ def split(fields: int, seed: int, say) -> dict[str, float]:
 
 
 COMPARED = ("mfi", "mfi-paper", "apf", "gf")
+REALTIME_BAR = 50.0  # the issues' "no flight below 50x real time"
 
 
 def by_method(
@@ -253,6 +259,28 @@ def by_method(
             f"x{cpu[method] / cpu['gf']:.2f} GF's"
         )
     return {method: cpu[method] / fields for method in COMPARED}
+
+
+def every_scenario(pattern: str, say) -> dict[str, float]:
+    """Part 5: each shipped scenario matching `pattern`, flown as `run`
+    flies it, best wall time of 2."""
+    paths = sorted(glob.glob(os.path.join(ROOT, "scenarios", pattern)))
+    say(
+        f"5. every shipped scenario ({pattern}), best of 2, as run flies it ({load()}):"
+    )
+    factors = {}
+    for path in paths:
+        flights = [simulate(load_scenario(path)) for _ in range(2)]
+        flight = min(flights, key=lambda f: f.wall_time)
+        name = flight.scenario.name
+        factors[name] = flight.metrics["sim_time"] / flight.wall_time
+        mark = f"  below {REALTIME_BAR:g}x" if factors[name] < REALTIME_BAR else ""
+        say(
+            f"   {name:20s} {factors[name]:7.1f}x real time  "
+            f"{flight.integrator_steps:6d} steps  {flight.sensor:6s} "
+            f"{1 + len(flight.others)} vehicle(s){mark}"
+        )
+    return factors
 
 
 def one_sweep(workers: int, fields: int, seed: int) -> None:
@@ -323,6 +351,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--override", help="a `tune` winner file layered on part 4's fields"
     )
+    parser.add_argument(
+        "--scenarios", default="*.yaml", help="part 5's scenarios (a glob)"
+    )
     parser.add_argument("--page", help="a page to write the output into")
     parser.add_argument(
         "--one-sweep", nargs=3, type=int, help=argparse.SUPPRESS
@@ -356,6 +387,7 @@ def main(argv: list[str] | None = None) -> dict:
     result["split"] = split(args.split, seed, say)
     result["rates"] = sweeps(args.fields, seed + 1, say)
     result["methods"] = by_method(args.compare, seed + 3, say, layers)
+    result["scenarios"] = every_scenario(args.scenarios, say)
     if args.page:
         write_section(args.page, "throughput", "```\n" + "\n".join(lines) + "\n```")
     return result

@@ -21,7 +21,7 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     page = tmp_path / "performance.md"
     page.write_text("# P\n<!-- BEGIN throughput -->\nold\n<!-- END throughput -->\n")
     argv = ["--duration", "2.0", "--repeats", "1", "--split", "1", "--fields", "2"]
-    argv += ["--compare", "1"]
+    argv += ["--compare", "1", "--scenarios", "sharp_*.yaml"]
     result = load_benchmark().main(argv + ["--page", str(page)])
     out = capsys.readouterr().out
     for text in ("MFI (Python", "C++ QuadrotorPlant + LQR", "ratio", "flights/min"):
@@ -30,8 +30,10 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     assert set(result["methods"]) == {"mfi", "mfi-paper", "apf", "gf"}
     assert all(cpu > 0.0 for cpu in result["methods"].values())
     assert "x1.00 GF's" in out
-    for text in ("4. CPU per flight by method",):
+    for text in ("4. CPU per flight by method", "5. every shipped scenario"):
         assert text in out
+    (factor,) = result["scenarios"].values()
+    assert list(result["scenarios"]) == ["sharp_corner"] and factor > 0.0
     mfi, lqr = result["mfi"], result["lqr"]
     assert mfi.sim_time == pytest.approx(2.0)
     assert lqr.sim_time == pytest.approx(2.0)
