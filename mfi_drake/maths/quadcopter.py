@@ -35,13 +35,19 @@ def attitude_gains(
     return J * w * w, 2.0 * params.attitude_damping_ratio * w * J
 
 
+def _thrust_floor(weight, level, params: NavigatorParams):
+    """The least vertical force F_z + m g the rotors deliver, T_min ℓ."""
+    return params.min_thrust_fraction * weight * level
+
+
 def _delivered_scale(F_x, F_y, F_z, level, weight, params: NavigatorParams):
     """The largest k ∈ (0, 1] for which k F is deliverable: T(k) = (k F_z +
     m g)/ℓ ≥ T_min gives k ≤ (m g − T_min ℓ)/(−F_z), and K_Pv k |F_h| /
     T(k) ≤ max_tilt gives k ≤ max_tilt m g / (K_Pv |F_h| ℓ − max_tilt F_z)."""
     k = 1.0
-    if F_z + weight < params.min_thrust_fraction * weight * level:
-        k = (weight - params.min_thrust_fraction * weight * level) / (-F_z)
+    T_min = _thrust_floor(weight, level, params)
+    if F_z + weight < T_min:
+        k = (weight - T_min) / (-F_z)
     f_h = params.K_Pv * sqrt(F_x * F_x + F_y * F_y)
     if f_h * level * k > params.max_tilt * (k * F_z + weight):
         k = params.max_tilt * weight / (f_h * level - params.max_tilt * F_z)
@@ -68,7 +74,7 @@ def _brake_first(F, v, level, weight, params: NavigatorParams) -> tuple:
     )
     b = (along * v[0], along * v[1], along * v[2])
     k = 1.0
-    T_min = params.min_thrust_fraction * weight * level
+    T_min = _thrust_floor(weight, level, params)
     if q[2] < 0.0 and b[2] + q[2] + weight < T_min:  # T is linear in k
         k = (b[2] + weight - T_min) / (-q[2])
     # K_Pv² ℓ² |b_h + k q_h|² ≤ max_tilt² (b_z + k q_z + m g)²: a k² + 2β k + γ
