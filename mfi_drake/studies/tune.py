@@ -369,6 +369,12 @@ def tuning_table(config: TuneConfig, best: dict[str, Candidate]) -> str:
         f"Written by `mfi-drake tune`: {config.candidates} candidates per method, "
         f"each flown on the same {len(next(iter(best.values())).records)} training "
         f"fields (seed {config.seed}, densities {config.densities}"
+        + (
+            f", each also with {config.moving:.0%} of its obstacles circling at "
+            f"{config.obstacle_speed:g} m/s"
+            if config.moving
+            else ""
+        )
         + (f", plus {config.walls} wall fields" if config.walls else "")
         + (", plus the paper's scenarios" if config.paper_scenarios else "")
         + ").",
