@@ -214,7 +214,7 @@ def cmd_sweep(args) -> int:
         moving=args.moving,
         obstacle_speed=args.obstacle_speed,
     )
-    texts = overrides(args) if args.overrides else []
+    texts = overrides(args)
     faults = None
     if args.faults is not None:
         try:

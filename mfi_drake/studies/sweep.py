@@ -557,7 +557,7 @@ def variant_name(
     faults: their names joined by commas, "" for none of them."""
     parts = [
         motion,
-        override_variant(overrides) if overrides else "",
+        override_variant(overrides),
         fault_variant(faults) if faults is not None else "",
     ]
     return ",".join(part for part in parts if part)

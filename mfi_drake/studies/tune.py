@@ -196,24 +196,17 @@ def training_fields(config: TuneConfig) -> list[Scenario]:
     the same in motion, its wall fields and the paper's scenarios, each if
     asked for."""
     like = SweepConfig(n=config.n, seed=config.seed, out=config.out)
-    fields = [
-        make_field(like, density, index)
-        for density in config.densities
-        for index in range(config.n)
-    ]
+    grid = [(d, index) for d in config.densities for index in range(config.n)]
+    fields = [make_field(like, density, index) for density, index in grid]
     if config.moving > 0.0:
         fields += [
             dataclasses.replace(
                 set_in_motion(
-                    field,
-                    config.seed,
-                    k % config.n,
-                    config.moving,
-                    config.obstacle_speed,
+                    field, config.seed, index, config.moving, config.obstacle_speed
                 ),
                 name=f"{field.name}_moving",
             )
-            for k, field in enumerate(fields)
+            for field, (_, index) in zip(fields, grid, strict=True)
         ]
     fields += [wall_field(config.seed, index) for index in range(config.walls)]
     if config.paper_scenarios:
