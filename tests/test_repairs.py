@@ -232,32 +232,31 @@ def test_g_the_selector_brakes_with_the_vehicle_mass_and_F_o():
     assert selector.ToAutoDiffXd().mass == 0.775
 
 
-def test_h_eq12_weighs_an_approached_obstacle_by_how_nearly_ahead_it_is():
-    """An obstacle 1.4 m away (its heading line passes it wide, > 1 m):
-    approaching at l_a·n = 0.45, halfway up (h)'s ramp from 0.3 to 0.6, half
-    of (a)'s eq 12; at 0.2 none, at 0.7 all of it; receding, (a)'s rule.
-    0.8 m away at l_a·n = 0.2, the heading line's clearance m = |r_o × l_a|
-    − ρ sets the weight, (1 − m)/0.5; 0.3 m away it is 1 (m < 0.5). F_a
+def test_h_eq12_weighs_an_approached_obstacle_by_how_near_its_path_it_is():
+    """Flying along x at cruise speed with the closest point at (d, y): the
+    heading line passes it at |y|, the clearance m = |y| − ρ. Eq 12 weighs
+    (1 − m)/0.5 clipped to [0, 1] (AHEAD_MISS = (0.5, 1) m), whatever the
+    angle d sets: all of it at m = 0.4, half at m = 0.75, none at 1.1,
+    near (d = 0.2) or far (d = 1.2); receding (d < 0), (a)'s rule. F_a
     (eq 14) is untouched."""
     goal = 10.0 * EX
     a = only(follow_blocking_only=True)
     h = dataclasses.replace(a, follow_ahead_only=True)
-    near = (0.8 + R) * np.sqrt(1.0 - 0.2**2) - R  # the clearance m at 0.8 m
-    cases = [(1.4, 0.45, 0.5), (1.4, 0.2, 0.0), (1.4, 0.7, 1.0), (1.4, -0.3, None)]
-    cases += [(0.8, 0.2, (1.0 - near) / 0.5), (0.3, 0.2, 1.0)]
-    assert 0.1 < cases[-2][2] < 0.9
-    for r, along, weight in cases:
-        r_o = (r + R) * EY
-        v = np.array([np.sqrt(1.0 - along**2), along, 0.0])  # l_a·n = along
+    v = REPAIRED.v_d * EX
+    cases = [(d, 0.4, 1.0) for d in (0.2, 1.2)] + [(d, 0.75, 0.5) for d in (0.2, 1.2)]
+    cases += [(0.2, 1.1, 0.0), (0.8, 1.1, 0.0), (-0.4, 0.6, None)]
+    for d, m, weight in cases:
+        r_o = np.array([d, m + R, 0.0])
         F_a, B_a = fields.obstacle_field(v, r_o, 1.0, goal, R, a)
         F_h, B_h = fields.obstacle_field(v, r_o, 1.0, goal, R, h)
         np.testing.assert_allclose(B_h, B_a)
         if weight is None:
             np.testing.assert_allclose(F_h, F_a)
         else:
-            assert np.linalg.norm(F_a) > 0.3
+            assert np.linalg.norm(F_a) > 0.1
             np.testing.assert_allclose(F_h, weight * F_a, atol=1e-12)
-    assert fields.blocking_weight(EX, EX, goal, ahead=True) == 1.0  # head-on
+    # Head-on the line passes through the closest point: m = −ρ, weight 1.
+    assert fields.blocking_weight(EX, EX, goal, 0.5 * EX, R) == 1.0
 
 
 def test_h_makes_no_limit_cycle_along_a_wall():

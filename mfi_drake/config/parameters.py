@@ -36,13 +36,12 @@ class NavigatorParams:
     not in its way back toward it."""
     follow_ahead_only: bool = True
     """(h) With (a), an approached obstacle gets eq 12 in full only when it
-    lies in or near the vehicle's path: the weight rises from 0 to 1 as l_a·n
-    goes from 0.3 to 0.6, or as the heading line's clearance from the
-    closest point falls from 1 m to 0.5 m, whichever is larger
-    (`fields.blocking_weight`). Eq 12's size is ∝ (l_a·n)·√(1 − (l_a·n)²),
-    largest 45° off the heading, so obstacles the vehicle merely passed bent
-    its path; eq 14 still acts on them within r_b. The clearance term keeps
-    eq 12 whole beside a wall, where the angle alone made a limit cycle."""
+    lies in or near the vehicle's path: the weight rises from 0 to 1 as the
+    heading line's clearance from the closest point falls from 1 m to
+    0.5 m (`fields.blocking_weight`). Eq 12's size is ∝ (l_a·n)·√(1 −
+    (l_a·n)²), largest 45° off the heading, so obstacles the vehicle merely
+    passed bent its path; eq 14 still acts on them within r_b. Beside a
+    wall the clearance is small whatever the angle, so eq 12 stays whole."""
     continuous_side: bool = True
     """(b) Head-on, eq 11's current is lengthened along a tangent whose side
     turns over continuously in a thin band (`fields.artificial_current`),

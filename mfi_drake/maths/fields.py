@@ -170,13 +170,11 @@ def artificial_current(
     )
 
 
-# Repair (h): approaching, eq 12's weight rises from 0 to 1 as l_a·n goes
-# from AHEAD[0] to AHEAD[1] (the closest point 72.5° to 53° off the heading),
-# or as the heading line's clearance from the closest point falls from
-# AHEAD_MISS[1] to AHEAD_MISS[0] [m], whichever is larger. The clearance
-# keeps eq 12 whole beside a surface the vehicle skirts closely: on the angle
-# alone, the heading swung round the ramp along a wall (a limit cycle).
-AHEAD = (0.3, 0.6)
+# Repair (h): approaching, eq 12's weight rises from 0 to 1 as the heading
+# line's clearance from the closest point falls from AHEAD_MISS[1] to
+# AHEAD_MISS[0] [m]. (It was the larger of that and a ramp of the approach
+# angle l_a·n; the angle made far obstacles beside a clear line bend the path,
+# docs/comparison.md.)
 AHEAD_MISS = (0.5, 1.0)
 
 
@@ -185,17 +183,14 @@ def _ramp(x, zero, one):
     return min(1.0, max(0.0, (x - zero) / (one - zero)))
 
 
-def _blocking_weight(l_a, n, r_g, ahead: bool = False, r_o=None, radius=0.0):
+def _blocking_weight(l_a, n, r_g, r_o=None, radius=0.0):
     along = dot(l_a, n)
     if along >= 0.0:
-        if not ahead:
-            return 1.0
-        weight = _ramp(along, *AHEAD)
         if r_o is None:
-            return weight
+            return 1.0
         # The heading line's clearance from the closest point, |r_o × l_a| − ρ.
         miss = norm(_cross(r_o, l_a)) - radius
-        return max(weight, _ramp(miss, AHEAD_MISS[1], AHEAD_MISS[0]))
+        return _ramp(miss, AHEAD_MISS[1], AHEAD_MISS[0])
     distance = norm(r_g)
     if distance < TINY:
         return 0.0
@@ -206,22 +201,20 @@ def blocking_weight(
     l_a: np.ndarray,
     n: np.ndarray,
     r_g: np.ndarray,
-    ahead: bool = False,
     r_o: np.ndarray | None = None,
     radius: float = 0.0,
 ):
     """Repair (a): the weight of eq 12 for an obstacle. 1 while the vehicle
     approaches it (l_a·n ≥ 0); receding, 1 only if it lies toward the goal,
     n·l_g ≥ 0.1, fading to 0 at n·l_g = 0. Continuous: eq 12 vanishes at
-    l_a·n = 0 whatever the weight. With `ahead` (repair (h)) an approached
-    obstacle weighs max(ramp of l_a·n from 0 at AHEAD[0] to 1 at AHEAD[1],
-    ramp of m from 0 at AHEAD_MISS[1] to 1 at AHEAD_MISS[0]), m = |r_o ×
-    l_a| − `radius` the clearance [m] by which the heading line passes the
-    obstacle's closest point r_o (the angle ramp alone without r_o): eq 12
-    turns the vehicle round obstacles in or near its path, and leaves those
-    it passes obliquely and wide to eq 14."""
+    l_a·n = 0 whatever the weight. Given the closest point r_o (repair (h)),
+    an approached obstacle weighs the ramp of m from 0 at m = AHEAD_MISS[1]
+    to 1 at AHEAD_MISS[0], m = |r_o × l_a| − `radius` the clearance [m] by
+    which the heading line passes the closest point: eq 12 turns the vehicle
+    round obstacles in or near its path, and leaves those it passes wide to
+    eq 14."""
     r_o = None if r_o is None else entries(r_o)
-    return _blocking_weight(entries(l_a), entries(n), entries(r_g), ahead, r_o, radius)
+    return _blocking_weight(entries(l_a), entries(n), entries(r_g), r_o, radius)
 
 
 def _boundary_following(
@@ -309,9 +302,8 @@ def obstacle_field(
         l_a, l_o, speed, r, params.c, params.r_l, params.tapered_range
     )
     if params.follow_blocking_only:
-        weight = _blocking_weight(
-            l_a, n, r_g, params.follow_ahead_only, r_o, collision_radius
-        )
+        ahead = r_o if params.follow_ahead_only else None
+        weight = _blocking_weight(l_a, n, r_g, ahead, collision_radius)
         F = _scaled(F, weight)
     F_a = _collision_avoidance(l_a, n, l_o, r, params.c_perp, params.r_b)
     if params.hover_fade and speed < params.fade_speed:
