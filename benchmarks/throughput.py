@@ -18,6 +18,10 @@ Prints, all measured in this run (the machine's load average with each):
    in turn, --repeats times each, and each keeps its best wall and CPU
    time; their real-time factors, steps and µs per step and per derivative
    evaluation, and the ratio MFI / reference of the real-time factors.
+   Then the floor: the MFI diagram flown with stale results
+   (`StaleResults`: no arithmetic in its Python systems) costs per step
+   what its structure costs, against the cost per step that a ratio of
+   BAR_RATIO allows.
 2. The split of a sweep flight's time (MFI on --split fresh fields at the
    default density, in this process, as a sweep's worker does it): field
    generation, the scenario's YAML both ways, the reference path (the
@@ -29,8 +33,10 @@ Prints, all measured in this run (the machine's load average with each):
 4. CPU per flight of each method (mfi, mfi-paper, apf, gf) on the same
    --compare fresh fields at the default density, flown in turn in this
    process until settled, as a sweep flies them; steps and µs per step,
-   and each method's CPU over GF's. With --override (a `tune` winner
-   file), every method flies these fields with its tuned gains.
+   and each method's CPU over GF's, every method with its shipped
+   defaults; with --override (a `tune` winner file, or
+   docs/results/protocol_choices.yaml: each method as the tuning protocol
+   chose it), the same fields again with the file layered on.
 5. Every shipped scenario (scenarios/*.yaml, or --scenarios GLOB there)
    flown as `mfi-drake run` flies it, best wall time of 2: its real-time
    factor (simulated seconds per wall second, every vehicle of it at once)
@@ -74,11 +80,15 @@ from mfi_drake.studies.sweep import (
     task_scenario,
     with_overrides,
 )
+from mfi_drake.systems.last_result import LastResult
 from mfi_drake.world import generator
 from mfi_drake.world.validation import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PLANAR_WALL = os.path.join(ROOT, "scenarios", "planar_wall.yaml")
+COMPARED = ("mfi", "mfi-paper", "apf", "gf")
+REALTIME_BAR = 50.0  # the issues' "no flight below 50x real time"
+BAR_RATIO = 0.05  # issue 15's planar wall against the C++ diagram
 
 
 @dataclasses.dataclass
@@ -154,8 +164,42 @@ def load() -> str:
     return f"load average {os.getloadavg()[0]:.2f}"
 
 
+class StaleResults:
+    """Within the block, every `LastResult` hands back the result it computed
+    first (recomputing once every `refresh` calls): the navigator, selector,
+    attitude PD and mixer then cost their ports' glue but not their
+    arithmetic, while the sensor's SceneGraph query, the plant, the
+    integrator and the logger run as usual. The vehicle no longer flies the
+    scenario, but each integrator step still costs what the diagram's
+    structure costs: the floor that faster arithmetic cannot go below."""
+
+    def __init__(self, refresh: int = 50):
+        self._refresh = refresh
+        self._saved = None
+
+    def __enter__(self):
+        refresh = self._refresh
+        self._saved = LastResult.__call__
+
+        def stale(last, key, calc, *args):
+            kept = last.__dict__.get("_stale")
+            if kept is None or kept[0] >= refresh:
+                kept = last.__dict__["_stale"] = [0, calc(*args)]
+            kept[0] += 1
+            return kept[1]
+
+        LastResult.__call__ = stale
+        return self
+
+    def __exit__(self, *exc):
+        LastResult.__call__ = self._saved
+
+
 def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
-    """Part 1: the MFI flight and the C++ reference, flown in turn."""
+    """Part 1: the MFI flight and the C++ reference, flown in turn; then the
+    same diagram with stale results (`StaleResults`): the cost of a step
+    without the Python arithmetic, against the cost a step may have for the
+    flight to reach BAR_RATIO of the C++ diagram's real-time factor."""
     mfi, lqr = [], []
     say(f"1. {scenario.name}, {scenario.duration:g} s, best of {repeats} ({load()})")
     for _ in range(repeats):
@@ -169,6 +213,17 @@ def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
     say(
         f"   ratio of real-time factors MFI / C++: {ratio:.4f} wall, "
         f"{cpu_ratio:.4f} CPU ({load()})"
+    )
+    with StaleResults():
+        floor = best([mfi_run(scenario) for _ in range(repeats)])
+    allowed = lqr.cpu_time / BAR_RATIO / mfi.steps
+    say(
+        f"   the same diagram with stale results (glue, sensor query, plant, "
+        f"integrator, logger; no arithmetic): {1e6 * floor.cpu_time / floor.steps:.1f}"
+        f" us CPU per step ({floor.steps} steps, "
+        f"{floor.derivative_evaluations / floor.steps:.2f} evaluations per step); "
+        f"a ratio of {BAR_RATIO:g} allows {1e6 * allowed:.1f} us per step at the "
+        f"flight's {mfi.steps} steps, {1e6 * mfi.cpu_time / mfi.steps:.1f} spent"
     )
     return {"mfi": mfi, "lqr": lqr, "ratio": ratio, "cpu_ratio": cpu_ratio}
 
@@ -201,7 +256,7 @@ def split(fields: int, seed: int, say) -> dict[str, float]:
             lap("reference")
             built = build_diagram(scenario)
             lap("build")
-            flight = fly(built, until_settled=True)
+            flight = fly(built, until_settled=True, stop_at_contact=True)
             # fly() = the simulation (its own CPU time) + reading the log and
             # the metrics.
             lap("metrics")
@@ -224,10 +279,6 @@ def split(fields: int, seed: int, say) -> dict[str, float]:
     return {piece: totals[piece] / fields for piece in PIECES}
 
 
-COMPARED = ("mfi", "mfi-paper", "apf", "gf")
-REALTIME_BAR = 50.0  # the issues' "no flight below 50x real time"
-
-
 def by_method(
     fields: int, seed: int, say, layers: list[tuple[str, str]] = ()
 ) -> dict[str, float]:
@@ -243,7 +294,11 @@ def by_method(
             )
             scenario = with_overrides(scenario, layers)
             for method in COMPARED:
-                flight = fly(build_diagram(scenario, method), until_settled=True)
+                flight = fly(
+                    build_diagram(scenario, method),
+                    until_settled=True,
+                    stop_at_contact=True,
+                )
                 cpu[method] += flight.cpu_time
                 steps[method] += flight.integrator_steps
     say(
@@ -386,7 +441,9 @@ def main(argv: list[str] | None = None) -> dict:
     result = against_cpp(scenario, args.repeats, say)
     result["split"] = split(args.split, seed, say)
     result["rates"] = sweeps(args.fields, seed + 1, say)
-    result["methods"] = by_method(args.compare, seed + 3, say, layers)
+    result["methods"] = by_method(args.compare, seed + 3, say)
+    if layers:  # the same fields again, each method with its override
+        result["overridden"] = by_method(args.compare, seed + 3, say, layers)
     result["scenarios"] = every_scenario(args.scenarios, say)
     if args.page:
         write_section(args.page, "throughput", "```\n" + "\n".join(lines) + "\n```")

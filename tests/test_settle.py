@@ -1,9 +1,13 @@
 """A flight that ends once its vehicle has settled at the goal (what sweeps
 fly, `simulation.settled_monitor`) has the whole flight's metrics within
-the integrator's accuracy, and only flights that stay at rest end early."""
+the integrator's accuracy, and only flights that stay at rest end early.
+A flight that ends at its first contact (`simulation.contact_monitor`) is
+the whole flight's first part, and ends at the step the sphere's closed
+form calls the first contact."""
 
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from mfi_drake.config.dynamic import Motion
@@ -49,3 +53,33 @@ def test_only_flights_that_stay_at_rest_end_early():
     # Where it does not settle, until_settled flies the whole duration.
     noisy = replace(SCENARIO, faults=Faults(position_noise_std=0.01))
     assert simulate(noisy, until_settled=True).metrics["sim_time"] == 30.0
+
+
+def straight_at_the_goal(position, velocity, obstacle_points, goal):
+    """A user field that pulls to the goal and ignores every obstacle."""
+    return 1.5 * (np.asarray(goal) - position) - 2.0 * velocity
+
+
+def test_a_flight_ends_at_its_first_contact_and_only_then():
+    sphere = SCENARIO.obstacles[0]
+    centre, reach = np.array(sphere.position), sphere.shape.radius
+    whole = simulate(SCENARIO, straight_at_the_goal)
+    stopped = simulate(SCENARIO, straight_at_the_goal, stop_at_contact=True)
+    assert whole.metrics["outcome"] == stopped.metrics["outcome"] == "collision"
+    assert stopped.metrics["sim_time"] < 0.5 * whole.metrics["sim_time"]
+    # The closed form: the collision sphere's clearance from the sphere.
+    clearance = (
+        np.linalg.norm(stopped.positions - centre, axis=1)
+        - reach
+        - stopped.collision_radius
+    )
+    assert clearance[-1] < 0.0 and np.all(clearance[:-1] >= 0.0)
+    # What it flew is the whole flight's beginning, step for step.
+    k = len(stopped.times)
+    assert np.array_equal(stopped.times, whole.times[:k])
+    for name, values in stopped.log.items():
+        assert np.array_equal(values, whole.log[name][:k]), name
+    # A flight that never touches is flown whole.
+    clear = simulate(SCENARIO, "mfi", stop_at_contact=True)
+    assert clear.metrics["outcome"] == "success"
+    assert clear.metrics["sim_time"] == SCENARIO.duration

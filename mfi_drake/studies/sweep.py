@@ -156,7 +156,7 @@ def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
         record["moving"] = moving
     record.update(reference)
     try:
-        m = simulate(scenario, method, until_settled=True).metrics
+        m = simulate(scenario, method, until_settled=True, stop_at_contact=True).metrics
     except Exception as e:  # a failed flight is a result, not a crash of the sweep
         message = " ".join(str(e).split())[:300]
         return record | {"outcome": "error", "error": f"{type(e).__name__}: {message}"}
