@@ -225,7 +225,14 @@ def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
         f"a ratio of {BAR_RATIO:g} allows {1e6 * allowed:.1f} us per step at the "
         f"flight's {mfi.steps} steps, {1e6 * mfi.cpu_time / mfi.steps:.1f} spent"
     )
-    return {"mfi": mfi, "lqr": lqr, "ratio": ratio, "cpu_ratio": cpu_ratio}
+    return {
+        "mfi": mfi,
+        "lqr": lqr,
+        "ratio": ratio,
+        "cpu_ratio": cpu_ratio,
+        "floor": floor,
+        "allowed_per_step": allowed,
+    }
 
 
 PIECES = ("generate", "yaml", "reference", "build", "simulate", "metrics")

@@ -22,12 +22,21 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     page.write_text("# P\n<!-- BEGIN throughput -->\nold\n<!-- END throughput -->\n")
     argv = ["--duration", "2.0", "--repeats", "1", "--split", "1", "--fields", "2"]
     argv += ["--compare", "1", "--scenarios", "sharp_*.yaml"]
+    argv += ["--override", os.path.join(ROOT, "docs/results/protocol_choices.yaml")]
     result = load_benchmark().main(argv + ["--page", str(page)])
     out = capsys.readouterr().out
     for text in ("MFI (Python", "C++ QuadrotorPlant + LQR", "ratio", "flights/min"):
         assert text in out
-    # Part 4: every compared method, and GF's ratio to itself is 1.
+    # The floor: the same diagram with stale results, and the per-step
+    # cost the 0.05 bar allows: the C++ diagram's CPU over 0.05 × MFI's steps.
+    assert "stale results" in out and result["floor"].steps > 0
+    allowed = result["lqr"].cpu_time / 0.05 / result["mfi"].steps
+    assert result["allowed_per_step"] == pytest.approx(allowed)
+    # Part 4: every compared method, and GF's ratio to itself is 1; with
+    # --override, the same fields again with the file layered on.
     assert set(result["methods"]) == {"mfi", "mfi-paper", "apf", "gf"}
+    assert set(result["overridden"]) == set(result["methods"])
+    assert "with " + os.path.join(ROOT, "docs/results/protocol_choices.yaml") in out
     assert all(cpu > 0.0 for cpu in result["methods"].values())
     assert "x1.00 GF's" in out
     for text in ("4. CPU per flight by method", "5. every shipped scenario"):
@@ -63,3 +72,22 @@ def test_throughput_rejects_a_non_positive_duration():
     with pytest.raises(SystemExit) as error:
         load_benchmark().main(["--duration", "0"])
     assert error.value.code == 2
+
+
+def test_stale_results_hand_back_the_first_result_and_are_undone():
+    module = load_benchmark()
+    from mfi_drake.systems.last_result import LastResult
+
+    calls = []
+
+    def square(x):
+        calls.append(x)
+        return x * x
+
+    last = LastResult()
+    with module.StaleResults(refresh=3):
+        got = [last(k, square, k) for k in (1, 2, 3, 4, 5)]
+    # Computed at the 1st call and again after 3 stale ones.
+    assert got == [1, 1, 1, 16, 16] and calls == [1, 4]
+    assert last(6, square, 6) == 36  # outside the block: computed as usual
+    assert last(6, square, 6) == 36 and calls == [1, 4, 6]
