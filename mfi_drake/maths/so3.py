@@ -14,27 +14,16 @@ import numpy as np
 TINY = 1e-9
 
 
-# Functions of one scalar: math's (far cheaper than a numpy ufunc on one
-# number) for floats, numpy's (which dispatches to AutoDiffXd's and
-# Expression's own) otherwise.
-def sqrt(x):
-    return math.sqrt(x) if isinstance(x, float) else np.sqrt(x)
+def _scalar_function(for_float, for_other):
+    """A function of one scalar: `for_float` (math's, far cheaper than a
+    numpy ufunc on one number) for floats, `for_other` (numpy's, which
+    dispatches to AutoDiffXd's and Expression's own) otherwise."""
+    return lambda x: for_float(x) if isinstance(x, float) else for_other(x)
 
 
-def arccos(x):
-    return math.acos(x) if isinstance(x, float) else np.arccos(x)
-
-
-def floor(x):
-    return math.floor(x) if isinstance(x, float) else np.floor(x)
-
-
-def sin(x):
-    return math.sin(x) if isinstance(x, float) else np.sin(x)
-
-
-def cos(x):
-    return math.cos(x) if isinstance(x, float) else np.cos(x)
+sqrt = _scalar_function(math.sqrt, np.sqrt)
+arccos = _scalar_function(math.acos, np.arccos)
+floor = _scalar_function(math.floor, np.floor)
 
 
 def atan2(y, x):
@@ -42,18 +31,18 @@ def atan2(y, x):
     return math.atan2(y, x) if isinstance(y, float) else np.arctan2(y, x)
 
 
-def entries(a) -> list | tuple:
-    """The entries of a small vector as a sequence of Python scalars (a
-    tuple or list is already one: returned as it is, never to be modified).
+sin = _scalar_function(math.sin, np.sin)
+cos = _scalar_function(math.cos, np.cos)
+
+
+def entries(a) -> list:
+    """The entries of a small vector as a list of Python scalars.
 
     Arithmetic on Python floats is several times cheaper than on numpy
     scalars, and the simulation evaluates these functions thousands of
     times; AutoDiffXd and Expression entries pass through unchanged.
     """
-    kind = type(a)
-    if kind is tuple or kind is list:
-        return a
-    return a.tolist() if kind is np.ndarray else list(a)
+    return a.tolist() if isinstance(a, np.ndarray) else list(a)
 
 
 def dot(a: np.ndarray, b: np.ndarray):
@@ -73,8 +62,7 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def norm(a: np.ndarray):
     """Euclidean norm of a 3-vector."""
     a0, a1, a2 = entries(a)
-    squared = a0 * a0 + a1 * a1 + a2 * a2
-    return math.sqrt(squared) if isinstance(squared, float) else np.sqrt(squared)
+    return sqrt(a0 * a0 + a1 * a1 + a2 * a2)
 
 
 def hat(w: np.ndarray) -> np.ndarray:
