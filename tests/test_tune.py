@@ -179,6 +179,38 @@ def test_moving_fields_join_the_training_fields_and_bad_motion_is_refused(
     assert not (tmp_path / "t").exists()
 
 
+def test_jittered_copies_start_a_millimetre_apart_and_bad_jitter_is_refused(
+    tmp_path, capsys
+):
+    """--jitter K: each random field (moving too) K times, the copies started
+    1 mm away along +x, −x, +y, … in turn, all else the same; walls and the
+    paper's scenes once."""
+    config = TuneConfig(
+        methods=["gf"], n=1, densities=[0.1], moving=0.3, obstacle_speed=0.5,
+        walls=1, jitter=3, out=str(tmp_path),
+    )  # fmt: skip
+    fields = {s.name: s for s in training_fields(config)}
+    static, moving = "field_d0.1_s100_i0", "field_d0.1_s100_i0_moving"
+    assert list(fields) == [
+        static, moving,
+        f"{static}_jitter+1+0+0", f"{static}_jitter-1+0+0",
+        f"{moving}_jitter+1+0+0", f"{moving}_jitter-1+0+0",
+        "wall_s100_i0",
+    ]  # fmt: skip
+    for base in (static, moving):
+        for name, step in (("+1+0+0", 1e-3), ("-1+0+0", -1e-3)):
+            copy = fields[f"{base}_jitter{name}"]
+            offset = np.subtract(copy.start, fields[base].start)
+            assert offset == pytest.approx([step, 0.0, 0.0], abs=1e-12)
+            assert copy.goal == fields[base].goal
+            assert copy.obstacles == fields[base].obstacles
+    for bad in ("0", "8"):
+        assert main(["tune", "--jitter", bad, "--out", str(tmp_path / "t")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"--jitter = {bad}" in err
+    assert not (tmp_path / "t").exists()
+
+
 def test_a_method_without_gains_is_refused(toy_dir, threads_client):
     (toy_dir / "plain.py").write_text(
         "def field(position, velocity, obstacle_points, goal):\n    return 0 * goal\n"

@@ -298,6 +298,7 @@ def cmd_tune(args) -> int:
         walls=args.walls,
         moving=args.moving,
         obstacle_speed=args.obstacle_speed,
+        jitter=args.jitter,
         held_out_seed=args.held_out_seed,
         out=args.out,
     )
@@ -503,6 +504,12 @@ def make_parser() -> argparse.ArgumentParser:
         "--walls", type=int, default=0, help="wall fields that join training"
     )
     add_motion(tune, "each random training field also flown with this share moving")
+    tune.add_argument(
+        "--jitter",
+        type=int,
+        default=1,
+        help="fly each random training field this many times, started 1 mm apart",
+    )
     tune.add_argument(
         "--held-out-seed", type=int, help="seed of the held-out fields (≠ --seed)"
     )

@@ -8,7 +8,12 @@ The protocol, the same for every method and fixed before any result is seen:
    the paper's scenarios added, and with `moving` > 0 each random field a
    second time with that share of its obstacles circling at
    `obstacle_speed` (`generator.set_in_motion`, as `sweep --moving`): the
-   closing speeds that static fields lack. Every method flies exactly
+   closing speeds that static fields lack. With `jitter` = K > 1, each
+   random field (in motion too) is flown K times, the copies starting
+   JITTER_STEP (1 mm) away along +x, −x, +y, −y, +z, −z in turn: a dense
+   field can be a coin flip, its outcome turned by a millimetre (training
+   seed 100, field 70 at 0.2), and K copies count it as the share of them
+   that fail instead of as all or nothing. Every method flies exactly
    these fields.
 2. Search over the method's documented free gains (`methods.Gain`), in the
    unit cube of their ranges (log-uniform where a gain is a scale):
@@ -59,6 +64,8 @@ from mfi_drake.world.generator import set_in_motion, wall_field
 from mfi_drake.world.validation import load_scenario
 
 REFINE_SIGMAS = (0.15, 0.07)  # of the unit range, one per refinement round
+JITTER_STEP = 1e-3  # [m] how far a jittered copy of a field starts from its own
+JITTER_AXES = ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))
 
 
 class TuneError(ValueError):
@@ -76,6 +83,7 @@ class TuneConfig:
     walls: int = 0  # wall fields (`generator.wall_field`) that join training
     moving: float = 0.0  # > 0: each random field also flown with this share moving
     obstacle_speed: float = 0.0  # [m/s] of the moving obstacles
+    jitter: int = 1  # copies of each random field, started 1 mm apart
     held_out_seed: int | None = None  # fields never used for training
     out: str = "out/tune"
 
@@ -89,6 +97,11 @@ class TuneConfig:
             raise TuneError(f"--walls = {self.walls}: must be ≥ 0")
         if self.candidates < 3:
             raise TuneError(f"--candidates = {self.candidates}: must be ≥ 3")
+        if not 1 <= self.jitter <= 1 + len(JITTER_AXES):
+            raise TuneError(
+                f"--jitter = {self.jitter}: must be 1 (none) to "
+                f"{1 + len(JITTER_AXES)} (the field and one copy per axis direction)"
+            )
 
 
 # --- the search space ---------------------------------------------------------------
@@ -208,6 +221,11 @@ def training_fields(config: TuneConfig) -> list[Scenario]:
             )
             for field, (_, index) in zip(fields, grid, strict=True)
         ]
+    fields += [
+        jittered(field, axis)
+        for field in list(fields)
+        for axis in JITTER_AXES[: config.jitter - 1]
+    ]
     fields += [wall_field(config.seed, index) for index in range(config.walls)]
     if config.paper_scenarios:
         fields += [
@@ -215,6 +233,14 @@ def training_fields(config: TuneConfig) -> list[Scenario]:
             for name in PAPER_SCENARIOS
         ]
     return fields
+
+
+def jittered(field: Scenario, axis: tuple[int, int, int]) -> Scenario:
+    """`field` started JITTER_STEP along `axis` from its own start, named
+    after both (its obstacles, goal and all else the same)."""
+    start = [s + JITTER_STEP * a for s, a in zip(field.start, axis, strict=True)]
+    sign = "".join(f"{a:+d}" for a in axis)
+    return dataclasses.replace(field, start=start, name=f"{field.name}_jitter{sign}")
 
 
 def tune(
@@ -366,6 +392,11 @@ def tuning_table(config: TuneConfig, best: dict[str, Candidate]) -> str:
             f", each also with {config.moving:.0%} of its obstacles circling at "
             f"{config.obstacle_speed:g} m/s"
             if config.moving
+            else ""
+        )
+        + (
+            f", each random field {config.jitter} times, started 1 mm apart"
+            if config.jitter > 1
             else ""
         )
         + (f", plus {config.walls} wall fields" if config.walls else "")
