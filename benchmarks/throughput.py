@@ -73,6 +73,7 @@ from mfi_drake.files import write_section
 from mfi_drake.flight.diagram import build_diagram, make_plant
 from mfi_drake.flight.simulation import fly, run_timed, simulate, simulator_at_start
 from mfi_drake.studies.sweep import (
+    SWEEP_ENDS,
     SweepConfig,
     dask_client,
     field_reference,
@@ -263,7 +264,7 @@ def split(fields: int, seed: int, say) -> dict[str, float]:
             lap("reference")
             built = build_diagram(scenario)
             lap("build")
-            flight = fly(built, until_settled=True, stop_at_contact=True)
+            flight = fly(built, **SWEEP_ENDS)
             # fly() = the simulation (its own CPU time) + reading the log and
             # the metrics.
             lap("metrics")
@@ -301,11 +302,7 @@ def by_method(
             )
             scenario = with_overrides(scenario, layers)
             for method in COMPARED:
-                flight = fly(
-                    build_diagram(scenario, method),
-                    until_settled=True,
-                    stop_at_contact=True,
-                )
+                flight = fly(build_diagram(scenario, method), **SWEEP_ENDS)
                 cpu[method] += flight.cpu_time
                 steps[method] += flight.integrator_steps
     say(

@@ -147,6 +147,11 @@ def field_reference(scenario_yaml: str) -> dict:
     }
 
 
+# How a sweep (and `tune`) flies a field: ended once its outcome is known,
+# settled at the goal or in contact (`simulation.fly`).
+SWEEP_ENDS = {"until_settled": True, "stop_at_contact": True}
+
+
 def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
     """Flies the scenario with `method` (a registry name or MODULE:NAME);
     the record's outcome and numbers."""
@@ -156,7 +161,7 @@ def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
         record["moving"] = moving
     record.update(reference)
     try:
-        m = simulate(scenario, method, until_settled=True, stop_at_contact=True).metrics
+        m = simulate(scenario, method, **SWEEP_ENDS).metrics
     except Exception as e:  # a failed flight is a result, not a crash of the sweep
         message = " ".join(str(e).split())[:300]
         return record | {"outcome": "error", "error": f"{type(e).__name__}: {message}"}
