@@ -128,12 +128,15 @@ def _delivered(T, roll, pitch, yaw, weight):
 
 
 def test_brake_first_keeps_the_braking_and_scales_the_rest_by_hand():
-    """Level, v along +x, m g max_tilt of horizontal force to give: F_n =
-    (−2, 10, 0) N is delivered as (−2, k·10, 0) with |(−2, 10k)| = max_tilt
-    m g; F_n = (−10, 10, 0) N brakes alone, (−max_tilt m g, 0, 0)."""
+    """Level, v along +x, L = max_tilt m g of horizontal force to give, δ the
+    brake margin: F_n = (−2, 10, 0) N (its braking fits with room to spare)
+    is delivered as (−2, k·10, 0) with |(−2, 10k)| = L; F_n = (−10, 10, 0)
+    N brakes (1 − δ) L and turns with the rest, (−(1 − δ) L, √(2δ − δ²) L,
+    0)."""
     vehicle = VEHICLES["drake_default"]
     params = dataclasses.replace(P, brake_first=True)
     limit = P.max_tilt * vehicle.weight
+    assert (1 - P.brake_margin) * limit > 2.0  # the first case's braking fits
     v = np.array([1.0, 0.0, 0.0])
     setpoint = attitude_setpoint(
         np.array([-2.0, 10, 0]), np.zeros(3), 0, vehicle, params, v
@@ -142,12 +145,17 @@ def test_brake_first_keeps_the_braking_and_scales_the_rest_by_hand():
     np.testing.assert_allclose(
         _delivered(*setpoint[:3], 0.0, vehicle.weight), [-2.0, 10 * k, 0], atol=1e-12
     )
-    setpoint = attitude_setpoint(
-        np.array([-10.0, 10, 0]), np.zeros(3), 0, vehicle, params, v
-    )
-    np.testing.assert_allclose(
-        _delivered(*setpoint[:3], 0.0, vehicle.weight), [-limit, 0, 0], atol=1e-12
-    )
+    for margin in (0.0, P.brake_margin, 0.5):
+        params = dataclasses.replace(P, brake_first=True, brake_margin=margin)
+        setpoint = attitude_setpoint(
+            np.array([-10.0, 10, 0]), np.zeros(3), 0, vehicle, params, v
+        )
+        turn = np.sqrt(2 * margin - margin**2) * limit
+        np.testing.assert_allclose(
+            _delivered(*setpoint[:3], 0.0, vehicle.weight),
+            [-(1 - margin) * limit, turn, 0],
+            atol=1e-12,
+        )
     # Without braking, or without a velocity, all of F_n is scaled.
     for F_n, velocity in (([2.0, 10, 0], v), ([-2.0, 10, 0], None)):
         setpoint = attitude_setpoint(
@@ -167,8 +175,8 @@ def test_brake_first_adds_no_work_and_respects_the_limits():
     """Any F_n, v, yaw: the delivered force is s b + k q with b the braking
     part of F_n and q the rest: its part ⟂ v is parallel to F_n's (the ⟂
     terms do no work) and its part along v never exceeds F_n's; the thrust
-    floor and tilt limit hold. s < 1 only where s b alone is on a limit; k
-    < 1 only where s b + k q is."""
+    floor and tilt limit hold. s < 1 only where s b / (1 − δ) is on a limit
+    (δ the brake margin); k < 1 only where s b + k q is."""
     vehicle = VEHICLES["drake_default"]
     params = dataclasses.replace(P, brake_first=True)
     T_min = P.min_thrust_fraction * vehicle.weight
@@ -192,10 +200,10 @@ def test_brake_first_adds_no_work_and_respects_the_limits():
             if F_n @ l_v < 0:
                 assert F_n @ l_v - 1e-9 <= delivered @ l_v <= 1e-12
                 s = (delivered @ l_v) / (F_n @ l_v)
-                if s < 1 - 1e-9:  # b scaled: s b alone is on a limit
-                    b_s = s * (F_n @ l_v) * l_v
+                if s < 1 - 1e-9:  # b scaled: s b / (1 − δ) is on a limit
+                    b_s = s * (F_n @ l_v) * l_v / (1 - P.brake_margin)
                     T_b, roll_b, pitch_b, _ = attitude_setpoint(
-                        b_s, np.array([0, 0, yaw]), 0.0, vehicle, params, v
+                        b_s, np.array([0, 0, yaw]), 0.0, vehicle, params
                     )
                     assert _binds(T_b, roll_b, pitch_b, T_min)
                     if rest_in_full:
@@ -206,23 +214,55 @@ def test_brake_first_adds_no_work_and_respects_the_limits():
 
 def test_brake_first_is_continuous_where_the_braking_alone_reaches_a_limit():
     """Level, v along +x, F_n = (−B, 0, Z) with Z > 0 lifting: B just under
-    and just over m g max_tilt (the braking alone at the tilt limit) give
-    the same delivered force, (−B or −limit, 0, Z). It once dropped the
-    lift on the far side, a 17 → 7 N thrust jump the integrator chattered
-    on."""
+    and just over (1 − δ)⁻¹ m g max_tilt (where the braking is first scaled)
+    give the same delivered force, (−(1 − δ) · that limit, 0, Z). It once
+    dropped the lift on the far side, a 17 → 7 N thrust jump the integrator
+    chattered on."""
     vehicle = VEHICLES["drake_default"]
     params = dataclasses.replace(P, brake_first=True)
     limit = P.max_tilt * vehicle.weight
     v = np.array([1.0, 0.0, 0.0])
     for B in (limit * (1 - 1e-9), limit * (1 + 1e-9)):
+        B /= 1 - P.brake_margin
         setpoint = attitude_setpoint(
             np.array([-B, 0.0, 3.0]), np.zeros(3), 0, vehicle, params, v
         )
         np.testing.assert_allclose(
             _delivered(*setpoint[:3], 0.0, vehicle.weight),
-            [-limit, 0.0, 3.0],
+            [-(1 - P.brake_margin) * limit, 0.0, 3.0],
             rtol=1e-8,
         )
+
+
+def test_the_brake_margin_keeps_the_turn_continuous_where_it_grazes_the_limit():
+    """The tree_on_ground case, by hand: level, L = m g max_tilt. The
+    braking A = (t w, 0, −t² w)/(1 + t²) (t = max_tilt, w = m g) lies on the
+    tilt cone K|f_h| = t (f_z + w), and v ∝ (−1, 0, t) is ⟂ the cone's
+    generator d = (t, 0, 1) through A, so the plane ⟂ v through A touches
+    the cone along d. Ask for twice that braking and a turn q = d (⟂ v).
+    Turning v by ±1e-7 rad about y tilts that plane to either side of d:
+    with no margin the turn delivered jumps between all of d and none of it
+    (the sliding surface tree_on_ground's integrator crawled along in 2 µs
+    steps); with the margin the braking stops (1 − δ) short of the limit
+    and the delivered force moves by less than 1e-5 N."""
+    vehicle = VEHICLES["drake_default"]
+    t, w = P.max_tilt, vehicle.weight
+    A = np.array([t * w, 0.0, -t * t * w]) / (1 + t * t)
+    d = np.array([t, 0.0, 1.0])
+
+    def delivered(angle, margin):
+        params = dataclasses.replace(P, brake_first=True, brake_margin=margin)
+        c, s = np.cos(angle), np.sin(angle)
+        v = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]) @ np.array([-1.0, 0, t])
+        l_v = v / np.linalg.norm(v)
+        q = d - (d @ l_v) * l_v
+        setpoint = attitude_setpoint(2 * A + q, np.zeros(3), 0, vehicle, params, v)
+        return _delivered(*setpoint[:3], 0.0, w)
+
+    jump = delivered(1e-7, 0.0) - delivered(-1e-7, 0.0)
+    assert np.linalg.norm(jump) == pytest.approx(np.linalg.norm(d), rel=1e-3)
+    step = delivered(1e-7, P.brake_margin) - delivered(-1e-7, P.brake_margin)
+    assert np.linalg.norm(step) < 1e-5
 
 
 @pytest.mark.parametrize("name", sorted(VEHICLES))

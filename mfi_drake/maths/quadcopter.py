@@ -56,12 +56,15 @@ def _delivered_scale(F_x, F_y, F_z, level, weight, params: NavigatorParams):
 
 def _brake_first(F, v, level, weight, params: NavigatorParams) -> tuple:
     """F_n = b + q, b its part along −v (braking), delivered as s b + k q:
-    s ∈ (0, 1] scales b alone into the limits (1 when it fits), then k ∈
-    [0, 1] is the largest that keeps s b + k q deliverable. Where b alone
-    does not fit, q is still added: a q that lifts makes room for tilt, so
-    dropping it would make the delivered force jump as b crosses the
-    limit (an integrator then chatters on that surface: tree_on_ground
-    took 2000 steps of 10 µs there)."""
+    s ∈ (0, 1] scales b into the limits shrunk by `brake_margin` δ (s = 1
+    when (1 − δ)⁻¹ b fits), then k ∈ [0, 1] is the largest that keeps
+    s b + k q deliverable. Where b alone does not fit, q is still added: a
+    q that lifts makes room for tilt, so dropping it would make the
+    delivered force jump as b crosses the limit (an integrator then
+    chatters on that surface: tree_on_ground took 2000 steps of 10 µs
+    there). δ keeps s b inside the convex set of deliverable forces, where
+    the exit k along q is continuous in q and s b; from a point on its
+    boundary k jumps between 1 and 0 as q turns across the tangent plane."""
     F_x, F_y, F_z = F
     speed_sq = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
     along = (F_x * v[0] + F_y * v[1] + F_z * v[2]) / speed_sq if speed_sq > 0 else 0
@@ -69,8 +72,10 @@ def _brake_first(F, v, level, weight, params: NavigatorParams) -> tuple:
         k = _delivered_scale(F_x, F_y, F_z, level, weight, params)
         return k * F_x, k * F_y, k * F_z
     q = (F_x - along * v[0], F_y - along * v[1], F_z - along * v[2])
+    # The scale of b/(1 − δ) is min(1, (1 − δ) s_max(b)): the scale is 1/gauge.
+    u = along / (1.0 - params.brake_margin)
     along = along * _delivered_scale(
-        along * v[0], along * v[1], along * v[2], level, weight, params
+        u * v[0], u * v[1], u * v[2], level, weight, params
     )
     b = (along * v[0], along * v[1], along * v[2])
     k = 1.0
