@@ -70,6 +70,16 @@ BAD = [
     ("negative gain", GOOD.replace("{K_P: 2.0}", "{K_P: -2.0}"), "navigator.K_P"),
     ("r_b beyond r_l", GOOD.replace("{K_P: 2.0}", "{r_b: 2.0}"), "navigator.r_b"),
     (
+        "negative margin",
+        GOOD.replace("{K_P: 2.0}", "{brake_margin: -0.1}"),
+        "navigator.brake_margin = -0.1: must be ≥ 0",
+    ),
+    (
+        "whole margin",
+        GOOD.replace("{K_P: 2.0}", "{brake_margin: 1.0}"),
+        "navigator.brake_margin = 1.0: must be < 1",
+    ),
+    (
         "start inside",
         GOOD.replace("[0.0, 0.0, 1.5]\ngoal", "[3.0, 0.1, 1.5]\ngoal"),
         "start",
