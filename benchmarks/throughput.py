@@ -2,7 +2,7 @@
 diagram, where a sweep flight's time goes, and sweep flights per minute.
 
     python benchmarks/throughput.py [--repeats 7] [--duration S] [--split 8]
-        [--fields 40] [--compare 20] [--override FILE] [--seed S]
+        [--fields 40] [--compare 60] [--override FILE] [--seed S]
         [--scenarios 'GLOB'] [--page docs/performance.md]
 
 Prints, all measured in this run (the machine's load average with each):
@@ -403,7 +403,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--duration", type=float, help="override the duration [s]")
     parser.add_argument("--split", type=int, default=8, help="fields of part 2")
     parser.add_argument("--fields", type=int, default=40, help="fields per sweep")
-    parser.add_argument("--compare", type=int, default=20, help="fields of part 4")
+    parser.add_argument("--compare", type=int, default=60, help="fields of part 4")
     parser.add_argument(
         "--seed", type=int, help="first seed of the fresh fields (default: the time)"
     )
