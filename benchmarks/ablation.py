@@ -4,9 +4,10 @@
                                   [--override FILE] [--workers 2]
                                   [--out docs/results/ablation]
 
-Flies the default MFI and, for each repair of `NavigatorParams` (a)–(f), the
-default MFI with that one repair toggled (the ones on turned off, the ones
-off turned on), and the paper's literal MFI, on the same held-out fields
+Flies the default MFI and, for each repair of `NavigatorParams` (a)–(h) and
+the chain's `brake_first`, the default MFI with that one toggled (the ones
+on turned off, the ones off turned on), with `brake_margin` 0.1 (or 0 if
+that is the default), and the paper's literal MFI, on the same held-out fields
 (`mfi-drake sweep`'s fields at --seed, which `mfi-drake tune` never trains
 on), with the tuned gains of --override if given. All variants share
 DIR/results.jsonl, keyed by their override, so an interrupted run resumes.
@@ -42,9 +43,12 @@ def variants() -> list[tuple[str, str]]:
     """(name, the navigator override YAML) of each variant flown."""
     default = NavigatorParams()
     out = [("default MFI", "")]
-    for repair in REPAIRS:
+    # The repairs, then the vehicle chain's saturation rule (every method's).
+    for repair in (*REPAIRS, "brake_first"):
         on = getattr(default, repair)
         out.append((f"{repair} {'off' if on else 'on'}", f"{{{repair}: {not on}}}"))
+    margin = 0.1 if default.brake_margin == 0.0 else 0.0
+    out.append((f"brake_margin {margin:g}", f"{{brake_margin: {margin:g}}}"))
     paper = paper_form(default)
     out.append(("paper's form (every repair off)", json.dumps(
         {r: getattr(paper, r) for r in REPAIRS}
