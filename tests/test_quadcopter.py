@@ -244,7 +244,7 @@ def test_the_brake_margin_keeps_the_turn_continuous_where_it_grazes_the_limit():
     Turning v by ±1e-7 rad about y tilts that plane to either side of d:
     with no margin the turn delivered jumps between all of d and none of it
     (the sliding surface tree_on_ground's integrator crawled along in 2 µs
-    steps); with the margin the braking stops (1 − δ) short of the limit
+    steps); with δ = 0.1 the braking stops (1 − δ) short of the limit
     and the delivered force moves by less than 1e-5 N."""
     vehicle = VEHICLES["drake_default"]
     t, w = P.max_tilt, vehicle.weight

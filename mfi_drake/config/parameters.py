@@ -159,9 +159,9 @@ MAY_BE_ZERO = {"brake_margin"}
 
 
 def field_problems(params, prefix: str = "") -> list[tuple[str, object, str]]:
-    """Every bool field a bool, every other field a finite number > 0 (≥ 0 if
-    in MAY_BE_ZERO; nested
-    dataclasses checked field by field, named "outer.inner")."""
+    """Every bool field a bool, every other field a finite number > 0 (≥ 0
+    if in MAY_BE_ZERO; nested dataclasses checked field by field, named
+    "outer.inner")."""
     problems = []
     for f in dataclasses.fields(params):
         value = getattr(params, f.name)
@@ -195,14 +195,9 @@ def validate_params(params: NavigatorParams) -> list[tuple[str, object, str]]:
             problems.append(("v_min", params.v_min, f"must be < v_d = {params.v_d}"))
         if params.max_tilt >= math.pi / 2:
             problems.append(("max_tilt", params.max_tilt, "must be < π/2"))
-        if params.tangent_blend >= 1.0:
-            problems.append(("tangent_blend", params.tangent_blend, "must be < 1"))
-        if params.brake_margin >= 1.0:
-            problems.append(("brake_margin", params.brake_margin, "must be < 1"))
-        if params.min_thrust_fraction >= 1.0:
-            problems.append(
-                ("min_thrust_fraction", params.min_thrust_fraction, "must be < 1")
-            )
+        for name in ("tangent_blend", "brake_margin", "min_thrust_fraction"):
+            if getattr(params, name) >= 1.0:
+                problems.append((name, getattr(params, name), "must be < 1"))
     return problems
 
 
