@@ -193,7 +193,7 @@ def settled_monitor(flight: FlightDiagram):
         elif since[0] is None:
             since[0] = t
         elif t - since[0] >= SETTLE_HOLD:
-            return EventStatus.ReachedTermination(None, "settled at the goal")
+            return EventStatus.ReachedTermination(plant, "settled at the goal")
         return EventStatus.Succeeded()
 
     return monitor
@@ -222,7 +222,7 @@ def contact_monitor(flight: FlightDiagram):
         for sensor, port in ports:
             for r_o, seen in readings(port.Eval(sensor.GetMyContextFromRoot(context))):
                 if seen > 0.5 and math.hypot(*r_o) < radius - CONTACT_MARGIN:
-                    return EventStatus.ReachedTermination(None, "in contact")
+                    return EventStatus.ReachedTermination(sensor, "in contact")
         return EventStatus.Succeeded()
 
     return monitor
