@@ -310,7 +310,34 @@ def read(root: str, *path: str) -> str:
 
 
 def ablation_table(root: str) -> str:
-    return markdown_table(read(root, RESULTS, "ablation_7171", "ablation.md"))
+    """One row a variant of benchmarks/ablation.py (its ablation.md has one
+    a variant and density)."""
+    with open(os.path.join(root, RESULTS, "ablation_7171", "ablation.json")) as f:
+        cells = json.load(f)
+    variants: dict[str, dict[str, dict]] = {}
+    for variant, density, stats, steps in cells:
+        variants.setdefault(variant, {})[density] = stats | {"steps": steps}
+    header = [
+        "variant (seed 7171, 100 fields a density)",
+        "collisions 0.1 / 0.2",
+        "median path ratio 0.1 / 0.2",
+        "clear line 0.1 (fields)",
+        "median steps 0.1 / 0.2",
+    ]
+    rows = []
+    for variant, by in variants.items():
+        low, high = by["0.1"], by["0.2"]
+        rows.append(
+            [
+                variant,
+                f"{count(low, 'collision')} / {count(high, 'collision')}",
+                f"{num(low['median_path_ratio'])} / {num(high['median_path_ratio'])}",
+                f"{num(low['median_path_ratio_clear_line'])} "
+                f"({low['clear_line_flights']})",
+                f"{low['steps']:.0f} / {high['steps']:.0f}",
+            ]
+        )
+    return table(header, rows)
 
 
 def robustness_table(root: str) -> str:
