@@ -255,7 +255,7 @@ def mfi_gains_table(root: str) -> str:
 
 
 CAMERA_SETS = [
-    ("8484", "fixed forward camera (default)", "sweep_depth/heldout_8484/camera"),
+    ("8484", "one forward camera, the default", "sweep_depth/heldout_8484/camera"),
     ("8484", "sphere sensor, r_s = 3 m", "sweep_depth/heldout_8484/sphere"),
     ("8484", "`rig3`: three cameras", "sweep_depth/heldout_8484/rig3"),
     ("9595", "`rig3`: three cameras", "sweep_depth/heldout_9595/rig3_d0.05"),
@@ -494,19 +494,19 @@ def headline_table(root: str) -> str:
                 "[comparison](docs/comparison.md#the-papers-scenes-and-claims)",
             ]
         )
-    camera = []
+    camera: dict[str, dict] = {}  # "sensor (seed)" -> density -> stats
     for seed_, sensor, path in CAMERA_SETS:
-        stats = summary(root, path)["methods"]["mfi"]
-        by = stats["by_density"]
-        camera.append(
-            f"{sensor.split(':')[0]} (seed {seed_}) "
-            + " / ".join(str(count(by[d], "collision")) for d in by)
-            + f" at {' / '.join(by)}"
-        )
+        by = summary(root, path)["methods"]["mfi"]["by_density"]
+        camera.setdefault(f"{sensor.split(':')[0]} (seed {seed_})", {}).update(by)
     rows.append(
         [
             "Depth camera only, held-out random fields: collisions of 200 a density",
-            "; ".join(camera),
+            "; ".join(
+                f"{name} "
+                + " / ".join(str(count(by[d], "collision")) for d in sorted(by))
+                + f" at {' / '.join(sorted(by))}"
+                for name, by in camera.items()
+            ),
             "[depth camera](docs/depth_camera.md#random-fields)",
         ]
     )
