@@ -3,16 +3,15 @@ with what the navigator computed at three moments of it.
 
     python docs/mfi_figure.py [--out docs/figures/mfi_idea.png]
 
-The default MFI flies from (0, 0) to (8, 0) past a sphere of radius 1 m at
-(4, 0.25), 1.5 m up. At three logged steps the figure draws the velocity v,
-the artificial current l_o on the obstacle at its closest point (eq 11: the
-heading projected on the surface) and the boundary-following force F that
-the navigator logged (eq 12, ⟂ v).
+The default MFI flies the planar wall's start to its goal, (0, 0) to
+(8, 0), past a sphere of radius 1 m at (4, 0.25), 1.5 m up. At three logged
+steps the figure draws the velocity v, the artificial current l_o on the
+obstacle at its closest point (eq 11: the heading projected on the surface)
+and the boundary-following force F that the navigator logged (eq 12, ⟂ v).
 """
 
 import argparse
 import os
-import tempfile
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -22,27 +21,19 @@ from mfi_drake import load_scenario, simulate
 from mfi_drake.app.figures import write_figure
 from mfi_drake.maths.layout import POSITION, READING_SIZE, VELOCITY
 
-SCENARIO = """
-name: mfi_idea
-start: [0.0, 0.0, 1.5]
-goal: [8.0, 0.0, 1.5]
+# The planar wall's start, goal and vehicle, its wall replaced by a sphere.
+LAYER = """
 duration: 20.0
-vehicle: drake_default
-sensor: !SphereSensor {radius: 3.0}
 obstacles:
-  - shape: !Sphere {radius: 1.0}
-    position: [4.0, 0.25, 1.5]
-    rpy_deg: [0.0, 0.0, 0.0]
+  - {shape: !Sphere {radius: 1.0}, position: [4.0, 0.25, 1.5], rpy_deg: [0, 0, 0]}
 """
 CENTRE, RADIUS = np.array([4.0, 0.25]), 1.0
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def fly():
-    with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, "mfi_idea.yaml")
-        with open(path, "w") as f:
-            f.write(SCENARIO)
-        return simulate(load_scenario(path), "mfi")
+    path = os.path.join(ROOT, "scenarios", "planar_wall.yaml")
+    return simulate(load_scenario(path, [("mfi_idea", LAYER)]), "mfi")
 
 
 def draw(flight, out: str) -> None:

@@ -1,11 +1,9 @@
 """benchmarks/publish.py: the docs' tables are what it renders from the
 committed summaries, and git keeps exactly the published sets' files."""
 
-import importlib.util
 import json
 import os
 import shutil
-import subprocess
 import sys
 
 import pytest
@@ -14,18 +12,9 @@ from mfi_drake import load_scenario
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import read_override
 
-from .conftest import ROOT, SCENARIOS
+from .conftest import ROOT, SCENARIOS, git_tracked, load_benchmark
 
-
-def load_publish():
-    path = os.path.join(ROOT, "benchmarks", "publish.py")
-    spec = importlib.util.spec_from_file_location("publish", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-publish = load_publish()
+publish = load_benchmark("publish")
 
 
 @pytest.fixture
@@ -75,19 +64,7 @@ def test_git_keeps_exactly_the_published_files():
     assert len(kept) == len(set(kept))
     missing = [p for p in kept if not os.path.isfile(os.path.join(ROOT, p))]
     assert not missing, missing
-    try:
-        out = subprocess.run(
-            ["git", "ls-files", "docs/results", "docs/sweep"],
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout
-    except (OSError, subprocess.CalledProcessError) as error:
-        reason = f"not a git checkout ({error})"
-        print(reason)
-        pytest.skip(reason)
-    tracked = set(out.split()) - {publish.MANIFEST}
+    tracked = set(git_tracked("docs/results", "docs/sweep")) - {publish.MANIFEST}
     under = {p for p in kept if p.startswith(("docs/results/", "docs/sweep/"))}
     assert tracked == under
 

@@ -2,11 +2,10 @@
 summaries, never generated meshes or per-flight sweep outputs."""
 
 import os
-import subprocess
 
 import pytest
 
-from .conftest import ROOT
+from .conftest import ROOT, git_tracked
 
 MAX_FILES = 1000
 MAX_TOTAL_BYTES = 25 * 1024 * 1024
@@ -15,18 +14,7 @@ MAX_FILE_BYTES = 2 * 1024 * 1024
 
 @pytest.fixture(scope="module")
 def tracked() -> list[str]:
-    try:
-        out = subprocess.run(
-            ["git", "ls-files", "-z"],
-            cwd=ROOT,
-            capture_output=True,
-            check=True,
-        ).stdout
-    except (OSError, subprocess.CalledProcessError) as error:
-        reason = f"not a git checkout ({error})"
-        print(reason)
-        pytest.skip(reason)
-    return [p for p in out.decode().split("\0") if p]
+    return git_tracked()
 
 
 def sizes(paths: list[str]) -> dict[str, int]:
