@@ -14,8 +14,8 @@ picks up where it stopped. --workers replaces the recorded `--workers 2`, and
 and `tune`, so the flights run on that cluster.
 
 Then, and alone with --tables-only, each table between the markers
-`<!-- publish:NAME -->` and `<!-- /publish:NAME -->` of README.md and the
-docs pages is written again from the committed summaries (`--root DIR`: the
+`<!-- BEGIN publish:NAME -->` and `<!-- END publish:NAME -->` of README.md
+and the docs pages is written again from the committed summaries (`--root DIR`: the
 summaries and pages of a copy of the repository; tests/test_publish.py
 checks that the committed pages equal what this renders). --list prints
 the files git keeps, one a line.
@@ -31,6 +31,8 @@ import subprocess
 import sys
 import tomllib
 from collections.abc import Callable
+
+from mfi_drake.files import write_section
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MANIFEST = os.path.join("docs", "results", "published.toml")
@@ -49,11 +51,9 @@ LABELS = {
     "apf": "APF",
     "gf": "GF",
 }
-MARKER = re.compile(
-    r"(<!-- publish:(?P<name>[a-z_0-9]+) -->\n)(?P<body>.*?)"
-    r"(<!-- /publish:(?P=name) -->)",
-    re.S,
-)
+# The pages' sections publish.py writes: `<!-- BEGIN publish:NAME -->` …
+# `<!-- END publish:NAME -->` (files.write_section's markers).
+SECTION = re.compile(r"<!-- BEGIN publish:([a-z_0-9]+) -->")
 
 
 # --- the manifest and the commands ------------------------------------------
@@ -556,29 +556,18 @@ TABLES: dict[str, Callable[[str], str]] = {
 }
 
 
-def render_page(text: str, root: str, page: str) -> str:
-    def replace(match: re.Match) -> str:
-        name = match.group("name")
-        if name not in TABLES:
-            raise SystemExit(f"{page}: unknown table <!-- publish:{name} -->")
-        return match.group(1) + TABLES[name](root) + "\n" + match.group(4)
-
-    return MARKER.sub(replace, text)
-
-
 def write_tables(root: str) -> list[str]:
-    """Rewrites every page's tables in place; returns the pages changed."""
+    """Rewrites every page's sections in place; returns the pages changed."""
     changed = []
     for page in PAGES:
-        path = os.path.join(root, page)
-        with open(path) as f:
-            text = f.read()
-        new = render_page(text, root, page)
-        if new != text:
-            tmp = path + ".tmp"
-            with open(tmp, "w") as f:
-                f.write(new)
-            os.replace(tmp, path)
+        before = read(root, page)
+        for name in SECTION.findall(before):
+            if name not in TABLES:
+                raise SystemExit(f"{page}: unknown section publish:{name}")
+            write_section(
+                os.path.join(root, page), f"publish:{name}", TABLES[name](root)
+            )
+        if read(root, page) != before:
             changed.append(page)
     return changed
 

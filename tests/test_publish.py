@@ -37,9 +37,7 @@ def test_the_docs_tables_equal_what_publish_renders(copy, capsys):
     committed = pages(ROOT)
     # Every table publish.py knows is on some page, so none goes unchecked.
     used = {
-        m.group("name")
-        for text in committed.values()
-        for m in publish.MARKER.finditer(text)
+        name for text in committed.values() for name in publish.SECTION.findall(text)
     }
     assert used == set(publish.TABLES)
     publish.main(["--tables-only", "--root", str(copy)])
@@ -50,11 +48,9 @@ def test_the_docs_tables_equal_what_publish_renders(copy, capsys):
 def test_a_stale_table_is_written_again(copy):
     readme = copy / "README.md"
     text = readme.read_text()
-    start = text.index("<!-- publish:headline -->\n") + len(
-        "<!-- publish:headline -->\n"
-    )
-    end = text.index("<!-- /publish:headline -->")
-    readme.write_text(text[:start] + "| stale |\n" + text[end:])
+    begin, end = "<!-- BEGIN publish:headline -->\n", "<!-- END publish:headline -->"
+    start = text.index(begin) + len(begin)
+    readme.write_text(text[:start] + "| stale |\n" + text[text.index(end) :])
     publish.main(["--tables-only", "--root", str(copy)])
     assert readme.read_text() == text
 
