@@ -2,7 +2,7 @@
 
     python benchmarks/ablation.py [--n 100] [--seed 2026] [--density 0.1 0.2]
                                   [--override FILE] [--workers 2]
-                                  [--out docs/results/ablation]
+                                  [--out out/ablation]
 
 Flies the default MFI and, for each repair of `NavigatorParams` (a)–(h) and
 the chain's `brake_first`, the default MFI with that one toggled (the ones
@@ -63,7 +63,7 @@ def main() -> None:
     parser.add_argument("--density", type=float, nargs="+", default=[0.1, 0.2])
     parser.add_argument("--override", help="tuned gains (mfi-drake tune)")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--out", default="docs/results/ablation")
+    parser.add_argument("--out", default="out/ablation")
     args = parser.parse_args()
     base = [read_override(args.override)] if args.override else []
     rows = []

@@ -1,7 +1,10 @@
 """Shared fixtures: paths to the shipped scenarios, a YAML writer, a current
-directory for a user's module, and an in-process Dask client."""
+directory for a user's module, an in-process Dask client, the benchmark
+scripts as modules, and the files git tracks."""
 
+import importlib.util
 import os
+import subprocess
 import sys
 import textwrap
 
@@ -43,3 +46,29 @@ def threads_client():
         processes=False, n_workers=1, threads_per_worker=1, dashboard_address=":0"
     ) as client:
         yield client
+
+
+def load_benchmark(name: str):
+    """benchmarks/NAME.py as a module (the scripts are not a package)."""
+    path = os.path.join(ROOT, "benchmarks", f"{name}.py")
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def git_tracked(*paths: str) -> list[str]:
+    """The files git tracks (under `paths`, if any), from the root; the
+    test is skipped, with the reason printed, outside a git checkout."""
+    try:
+        out = subprocess.run(
+            ["git", "ls-files", "-z", "--", *paths],
+            cwd=ROOT,
+            capture_output=True,
+            check=True,
+        ).stdout
+    except (OSError, subprocess.CalledProcessError) as error:
+        reason = f"not a git checkout ({error})"
+        print(reason)
+        pytest.skip(reason)
+    return [p for p in out.decode().split("\0") if p]

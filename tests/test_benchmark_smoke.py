@@ -1,20 +1,14 @@
 """benchmarks/throughput.py runs and reports what it claims (no timing
 assertions: the numbers depend on the machine)."""
 
-import importlib.util
 import os
 
 import pytest
 
-from .conftest import ROOT
+from .conftest import ROOT, load_benchmark
 
-
-def load_benchmark():
-    path = os.path.join(ROOT, "benchmarks", "throughput.py")
-    spec = importlib.util.spec_from_file_location("throughput", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+# Any override file: part 4 flies the same fields again with it layered on.
+OVERRIDE = os.path.join(ROOT, "tests", "data", "gains_override.yaml")
 
 
 def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
@@ -22,8 +16,8 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     page.write_text("# P\n<!-- BEGIN throughput -->\nold\n<!-- END throughput -->\n")
     argv = ["--duration", "2.0", "--repeats", "1", "--split", "1", "--fields", "2"]
     argv += ["--compare", "1", "--scenarios", "sharp_*.yaml"]
-    argv += ["--override", os.path.join(ROOT, "docs/results/protocol_choices.yaml")]
-    result = load_benchmark().main(argv + ["--page", str(page)])
+    argv += ["--override", OVERRIDE]
+    result = load_benchmark("throughput").main(argv + ["--page", str(page)])
     out = capsys.readouterr().out
     for text in ("MFI (Python", "C++ QuadrotorPlant + LQR", "ratio", "flights/min"):
         assert text in out
@@ -36,7 +30,7 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     # --override, the same fields again with the file layered on.
     assert set(result["methods"]) == {"mfi", "mfi-paper", "apf", "gf"}
     assert set(result["overridden"]) == set(result["methods"])
-    assert "with " + os.path.join(ROOT, "docs/results/protocol_choices.yaml") in out
+    assert "with " + OVERRIDE in out
     assert all(cpu > 0.0 for cpu in result["methods"].values())
     assert "x1.00 GF's" in out
     for text in ("4. CPU per flight by method", "5. every shipped scenario"):
@@ -70,12 +64,12 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
 
 def test_throughput_rejects_a_non_positive_duration():
     with pytest.raises(SystemExit) as error:
-        load_benchmark().main(["--duration", "0"])
+        load_benchmark("throughput").main(["--duration", "0"])
     assert error.value.code == 2
 
 
 def test_stale_results_hand_back_the_first_result_and_are_undone():
-    module = load_benchmark()
+    module = load_benchmark("throughput")
     from mfi_drake.systems.last_result import LastResult
 
     calls = []

@@ -3,7 +3,6 @@ against closed forms, the statistics against hand-computed values, the
 results file's resume, and a sweep on two Dask worker processes."""
 
 import dataclasses
-import importlib.util
 import json
 import math
 import os
@@ -24,7 +23,7 @@ from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.reference_path import Clearance, reference_path
 from mfi_drake.world.validation import load_scenario, validate_scenario
 
-from .conftest import ROOT
+from .conftest import load_benchmark
 
 R = VEHICLES["drake_default"].collision_radius
 W = generator.DEFAULT_WORKSPACE
@@ -318,11 +317,9 @@ def test_sweep_rejects_bad_arguments(tmp_path, capsys, args, named):
 
 
 def test_obstacle_count_benchmark_flies_the_same_path_in_every_world(capsys):
-    path = os.path.join(ROOT, "benchmarks", "obstacle_count.py")
-    spec = importlib.util.spec_from_file_location("obstacle_count", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    results = module.main(["--counts", "10", "40", "--repeats", "1", "--duration", "2"])
+    results = load_benchmark("obstacle_count").main(
+        ["--counts", "10", "40", "--repeats", "1", "--duration", "2"]
+    )
     assert "same trajectory in every world: yes" in capsys.readouterr().out
     assert results[10]["steps"] == results[40]["steps"] > 0
 

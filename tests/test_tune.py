@@ -12,7 +12,6 @@ import pytest
 from mfi_drake import load_scenario
 from mfi_drake.app.cli import main
 from mfi_drake.config.parameters import GfParams, NavigatorParams
-from mfi_drake.config.scenario import read_override
 from mfi_drake.flight.methods import METHODS, Gain
 from mfi_drake.studies.sweep import read_results
 from mfi_drake.studies.tune import (
@@ -26,7 +25,7 @@ from mfi_drake.studies.tune import (
     unit_point,
 )
 
-from .conftest import ROOT, SCENARIOS
+from .conftest import SCENARIOS
 
 # A toy method whose best gain is known: it cruises at 1.5 − (k − 2)² m/s
 # (at least 0.3) straight to the goal, so on an empty field every k succeeds
@@ -227,26 +226,3 @@ def test_every_builtin_method_declares_gains_with_valid_ranges():
             assert isinstance(gain, Gain) and 0 < gain.low < gain.high
             assert gain.path.split(".")[0] == method.parameters
     assert json.loads(override_text({"a.b": 1.0})) == {"a": {"b": 1.0}}
-
-
-def test_protocol_choices_are_the_tune_winners_but_mfi_s():
-    """docs/results/protocol_choices.yaml (each method as the protocol chose
-    it, flown by the throughput benchmark) is tune_moving's winner file less
-    MFI's section, whose shipped gains the protocol kept: a copy that must
-    not drift from its source."""
-    results = os.path.join(ROOT, "docs", "results")
-
-    def sections(name):
-        with open(os.path.join(results, name)) as f:
-            return json.loads("".join(x for x in f if not x.startswith("#")))
-
-    winners = sections(os.path.join("tune_moving", "tuned.yaml"))
-    chosen = sections("protocol_choices.yaml")
-    assert "navigator" in winners and "navigator" not in chosen
-    assert chosen == {k: v for k, v in winners.items() if k != "navigator"}
-    # And it is an override file that layers onto a scenario.
-    path = os.path.join(results, "protocol_choices.yaml")
-    planar_wall = os.path.join(SCENARIOS, "planar_wall.yaml")
-    scenario = load_scenario(planar_wall, [read_override(path)])
-    assert scenario.gf.k_g == pytest.approx(chosen["gf"]["k_g"])
-    assert scenario.navigator == NavigatorParams()

@@ -1,0 +1,45 @@
+"""What git tracks stays small: source, tests, scenarios and the published
+summaries, never generated meshes or per-flight sweep outputs."""
+
+import os
+
+import pytest
+
+from .conftest import ROOT, git_tracked
+
+MAX_FILES = 1000
+MAX_TOTAL_BYTES = 25 * 1024 * 1024
+MAX_FILE_BYTES = 2 * 1024 * 1024
+
+
+@pytest.fixture(scope="module")
+def tracked() -> list[str]:
+    return git_tracked()
+
+
+def sizes(paths: list[str]) -> dict[str, int]:
+    """Bytes of each tracked file present in the work tree (a file deleted
+    but not yet staged is not counted)."""
+    full = {p: os.path.join(ROOT, p) for p in paths}
+    return {p: os.path.getsize(f) for p, f in full.items() if os.path.isfile(f)}
+
+
+def test_no_generated_meshes_outside_scenarios(tracked):
+    meshes = [
+        p
+        for p in tracked
+        if p.lower().endswith(".obj") and not p.startswith("scenarios/")
+    ]
+    assert not meshes, f"{len(meshes)} meshes tracked outside scenarios/: {meshes[:5]}"
+
+
+def test_at_most_a_thousand_files(tracked):
+    assert 0 < len(tracked) <= MAX_FILES, f"{len(tracked)} files tracked"
+
+
+def test_at_most_25_mb_in_all_and_2_mb_a_file(tracked):
+    size = sizes(tracked)
+    total = sum(size.values())
+    assert total <= MAX_TOTAL_BYTES, f"{total / 1e6:.1f} MB tracked"
+    big = {p: s for p, s in size.items() if s > MAX_FILE_BYTES}
+    assert not big, f"files over 2 MB: {big}"
