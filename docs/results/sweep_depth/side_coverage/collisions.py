@@ -16,7 +16,6 @@ within 1 m) without being read.
 
 import dataclasses
 import sys
-import tempfile
 
 import numpy as np
 from pydrake.systems.framework import EventStatus
@@ -68,11 +67,8 @@ def main() -> None:
     seed, density, override = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3]
     with open(override) as f:
         text = f.read()
-    meshes = tempfile.mkdtemp()
     for index in (int(i) for i in sys.argv[4].split(",")):
-        field = generator.random_field(
-            seed, index, density, meshes, sensor=DepthCamera()
-        )
+        field = generator.random_field(seed, index, density, sensor=DepthCamera())
         scenario = with_overrides(field, [(override, text)])
         steps, contact = fly_to_contact(scenario)
         if not contact:
