@@ -447,15 +447,31 @@ def _user_modules(methods: Sequence[str]) -> Iterator[str]:
 
 
 def ship_modules(client, methods: Sequence[str]) -> None:
-    """Uploads the client's own module of each MODULE:NAME method (a .py
-    file, or its top-level package as a zip; not an installed one: a file
-    under site-packages, nor this package) to every worker of the cluster,
-    now and joining later (Dask's UploadFile worker plugin)."""
+    """Ships the client's own module of each MODULE:NAME method to every
+    worker of the cluster (a Dask worker plugin, so to those joining later
+    too): a .py file, or its top-level package as a zip, written into the
+    worker's directory and put on its import path. An installed module
+    (under site-packages) and this package are not shipped: the workers
+    have their own. Importing is left to the tasks, and to `run_tasks`'
+    check, which names a worker where it fails."""
     import importlib
     import shutil
     import tempfile
 
-    from distributed.diagnostics.plugin import UploadFile
+    from distributed import WorkerPlugin
+
+    class ShipModule(WorkerPlugin):
+        def __init__(self, filename: str, data: bytes):
+            self.filename, self.data = filename, data
+
+        def setup(self, worker) -> None:
+            path = os.path.join(worker.local_directory, self.filename)
+            with open(path, "wb") as f:
+                f.write(self.data)
+            entry = path if path.endswith(".zip") else worker.local_directory
+            if entry not in sys.path:
+                sys.path.insert(0, entry)
+            importlib.invalidate_caches()
 
     for name in dict.fromkeys(_user_modules(methods)):
         path = getattr(importlib.import_module(name), "__file__", None) or ""
@@ -466,15 +482,15 @@ def ship_modules(client, methods: Sequence[str]) -> None:
             or parts & {"site-packages", "dist-packages"}
         ):
             continue
-        if os.path.basename(path) != "__init__.py":
-            client.register_plugin(UploadFile(path), name=f"upload-{name}")
-            continue
         with tempfile.TemporaryDirectory() as tmp:
-            package = os.path.dirname(path)
-            archive = shutil.make_archive(
-                os.path.join(tmp, name), "zip", os.path.dirname(package), name
-            )
-            client.register_plugin(UploadFile(archive), name=f"upload-{name}")
+            if os.path.basename(path) == "__init__.py":
+                package = os.path.dirname(path)
+                path = shutil.make_archive(
+                    os.path.join(tmp, name), "zip", os.path.dirname(package), name
+                )
+            with open(path, "rb") as f:
+                plugin = ShipModule(os.path.basename(path), f.read())
+        client.register_plugin(plugin, name=f"mfi-drake-ship-{name}")
 
 
 def _import_problem(methods: Sequence[str]) -> str | None:
