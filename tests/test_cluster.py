@@ -18,6 +18,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from pathlib import Path
 
@@ -265,6 +266,7 @@ def test_a_user_field_that_does_not_import_on_a_worker_is_one_line(cluster, clie
 def test_a_cluster_without_workers_is_one_line(
     tmp_path, client_dir, monkeypatch, capsys
 ):
+    """At the start (sweep and tune), and when the last worker dies."""
     empty = Cluster(tmp_path / "empty", client_dir)
     monkeypatch.setattr(sweep, "WORKER_WAIT", 2.0)
     try:
@@ -278,7 +280,21 @@ def test_a_cluster_without_workers_is_one_line(
             ]
             assert main(args) == 2
             (line,) = capsys.readouterr().err.strip().splitlines()
-            assert "no workers" in line and "2 s" in line, line
+            assert "has no workers: none joined within 2 s" in line, line
+        empty.add_worker("lonely")
+
+        def kill_when_napping():
+            with distributed.Client(empty.address, timeout=30) as watcher:
+                while not any(watcher.processing().values()):
+                    time.sleep(0.1)
+            empty.kill("lonely")
+
+        with distributed.Client(empty.address, timeout=30) as client:
+            client.wait_for_workers(1, timeout=60)
+            threading.Thread(target=kill_when_napping).start()
+            nap = sweep.Task("nap", time.sleep, (120,))
+            with pytest.raises(sweep.ClusterError, match="all left, and none joined"):
+                sweep.run_tasks(client, [("nap", nap)], lambda *_: None)
     finally:
         empty.close()
 
@@ -350,7 +366,7 @@ def test_tls_flies_with_the_certificate_and_refuses_without(
         refused = mfi_drake([*args[:-1], "refused"], client_dir)
         assert refused.returncode == 2
         (line,) = refused.stderr.strip().splitlines()
-        assert "--scheduler" in line and "cannot connect" in line, line
+        assert "--scheduler" in line and "without a certificate" in line, line
         print(line)
         assert not (client_dir / "refused" / "results.jsonl").exists()
     finally:

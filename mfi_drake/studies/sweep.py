@@ -418,9 +418,15 @@ def dask_client(
     if scheduler:
         try:
             client = Client(scheduler, timeout=10)
-        except (OSError, TypeError, ValueError) as e:  # TLS refused: TypeError
+        except (OSError, TypeError, ValueError) as e:
+            why = f"({_one_line(e)})"
+            if isinstance(e, TypeError) and scheduler.startswith("tls://"):
+                why = (  # Dask's words: "TLS expects a `ssl_context` argument"
+                    "without a certificate: set Dask's distributed.comm.tls.ca-file, "
+                    ".client.cert and .client.key (or DASK_DISTRIBUTED__COMM__TLS__*)"
+                )
             raise ClusterError(
-                f"--scheduler = {scheduler!r}: cannot connect ({_one_line(e)})"
+                f"--scheduler = {scheduler!r}: cannot connect {why}"
             ) from None
         with client:
             ship_modules(client, methods)
@@ -496,11 +502,10 @@ def ship_modules(client, methods: Sequence[str]) -> None:
 def _import_problem(methods: Sequence[str]) -> str | None:
     """Run on a worker: the first MODULE:NAME that does not import there."""
     for method in methods:
-        if method not in METHODS:
-            try:
-                import_field(method)
-            except MethodError as e:
-                return str(e)
+        try:
+            import_field(method)
+        except MethodError as e:
+            return str(e)
     return None
 
 
@@ -509,7 +514,7 @@ def _wait_for_workers(client, why: str) -> None:
         client.wait_for_workers(1, timeout=WORKER_WAIT)
     except TimeoutError:
         raise ClusterError(
-            f"the Dask cluster has no workers: none {why} within {WORKER_WAIT:g} s"
+            f"the Dask cluster has no workers: {why} within {WORKER_WAIT:g} s"
         ) from None
 
 
@@ -543,10 +548,13 @@ def run_tasks(
     handed to on_result stay)."""
     from distributed import as_completed
 
-    _wait_for_workers(client, "joined")
-    for worker, problem in client.run(_import_problem, list(methods)).items():
-        if problem:
-            raise ClusterError(f"--methods: {problem} on worker {worker}")
+    _wait_for_workers(client, "none joined")
+    if user := [m for m in methods if m not in METHODS]:
+        # A worker that dies meanwhile returns its error: it flies nothing.
+        checks = client.run(_import_problem, user, on_error="return")
+        for worker, problem in checks.items():
+            if isinstance(problem, str):
+                raise ClusterError(f"--methods: {problem} on worker {worker}")
     submitted = {}
 
     def submit(task: Task):
@@ -563,7 +571,7 @@ def run_tasks(
         batch = pending.next_batch(block=False)
         if not batch:
             if time.monotonic() - idle > 5.0 and not client.nthreads():
-                _wait_for_workers(client, "left running")
+                _wait_for_workers(client, "all left, and none joined")
                 idle = time.monotonic()
             time.sleep(0.1)
             continue
