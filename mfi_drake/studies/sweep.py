@@ -564,6 +564,9 @@ def run_tasks(
         return submitted[task.key]
 
     futures = {submit(task): tag for tag, task in tasks}
+    # The scheduler keeps a dependency while a task needs it; a finished
+    # task's result is let go with its future, as soon as it is handed on.
+    submitted.clear()
     lost = []
     pending = as_completed(futures)
     idle = time.monotonic()
