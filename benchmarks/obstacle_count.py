@@ -22,8 +22,6 @@ hence the best of several repeats.
 
 import argparse
 import dataclasses
-import os
-import tempfile
 import time
 
 import numpy as np
@@ -35,7 +33,7 @@ from mfi_drake.world.generator import DEFAULT_WORKSPACE, random_field, random_ob
 FAR = 12.0  # m, least distance of an added obstacle's centre from the line
 
 
-def far_obstacles(count: int, mesh_dir: str, seed: int = 0) -> list:
+def far_obstacles(count: int, seed: int = 0) -> list:
     """`count` random obstacles in a 240 × 240 × 60 m box, none within FAR of
     the start–goal line."""
     rng = np.random.default_rng(seed)
@@ -44,8 +42,7 @@ def far_obstacles(count: int, mesh_dir: str, seed: int = 0) -> list:
     low, high = np.array([-115.0, -120.0, -28.0]), np.array([125.0, 120.0, 32.0])
     out = []
     while len(out) < count:
-        mesh = os.path.join(mesh_dir, f"far_{len(out)}.obj")
-        obstacle = random_obstacle(rng, low, high, mesh)
+        obstacle = random_obstacle(rng, low, high)
         p = np.asarray(obstacle.position)
         t = np.clip(np.dot(p - start, goal - start) / np.sum((goal - start) ** 2), 0, 1)
         if np.linalg.norm(p - (start + t * (goal - start))) > FAR:
@@ -80,22 +77,21 @@ def main(argv: list[str] | None = None) -> dict:
     if min(args.counts) < 10 or args.repeats < 1 or args.duration <= 0:
         parser.error("--counts must be ≥ 10, --repeats ≥ 1, --duration > 0")
     results = {}
-    with tempfile.TemporaryDirectory() as meshes:
-        near = random_field(2, 0, 0.05, meshes, duration=args.duration)
-        far = far_obstacles(max(args.counts) - len(near.obstacles), meshes)
+    near = random_field(2, 0, 0.05, duration=args.duration)
+    far = far_obstacles(max(args.counts) - len(near.obstacles))
+    print(
+        f"MFI, {len(near.obstacles)} obstacles near the line, "
+        f"{args.duration:g} s simulated, best of {args.repeats}"
+    )
+    print("obstacles | build [s] | simulate [s] | metrics [s] | steps | path [m]")
+    for count in args.counts:
+        extra = far[: count - len(near.obstacles)]
+        world = dataclasses.replace(near, obstacles=near.obstacles + extra)
+        r = results[count] = cost(world, args.repeats)
         print(
-            f"MFI, {len(near.obstacles)} obstacles near the line, "
-            f"{args.duration:g} s simulated, best of {args.repeats}"
+            f"{count:9d} | {r['build']:9.3f} | {r['simulate']:12.3f} | "
+            f"{r['metrics']:11.3f} | {r['steps']:5d} | {r['path_length']:.4f}"
         )
-        print("obstacles | build [s] | simulate [s] | metrics [s] | steps | path [m]")
-        for count in args.counts:
-            extra = far[: count - len(near.obstacles)]
-            world = dataclasses.replace(near, obstacles=near.obstacles + extra)
-            r = results[count] = cost(world, args.repeats)
-            print(
-                f"{count:9d} | {r['build']:9.3f} | {r['simulate']:12.3f} | "
-                f"{r['metrics']:11.3f} | {r['steps']:5d} | {r['path_length']:.4f}"
-            )
     lengths = {r["path_length"] for r in results.values()}
     print(
         "same trajectory in every world: "

@@ -243,35 +243,32 @@ def split(fields: int, seed: int, say) -> dict[str, float]:
     """Part 2: mean seconds per flight of each piece of a sweep flight."""
     totals = dict.fromkeys(PIECES, 0.0)
     steps = sim_time = 0
-    with tempfile.TemporaryDirectory() as out:
-        for index in range(fields):
-            clock = time.process_time()
+    for index in range(fields):
+        clock = time.process_time()
 
-            def lap(piece: str) -> None:
-                nonlocal clock
-                now = time.process_time()
-                totals[piece] += now - clock
-                clock = now
+        def lap(piece: str) -> None:
+            nonlocal clock
+            now = time.process_time()
+            totals[piece] += now - clock
+            clock = now
 
-            scenario = generator.random_field(
-                seed, index, generator.DEFAULT_DENSITY, out
-            )
-            lap("generate")
-            text = scenario_to_yaml(scenario)  # the client's
-            scenario = task_scenario(text)  # the worker's (once per field)
-            lap("yaml")
-            field_reference(text)
-            lap("reference")
-            built = build_diagram(scenario)
-            lap("build")
-            flight = fly(built, **SWEEP_ENDS)
-            # fly() = the simulation (its own CPU time) + reading the log and
-            # the metrics.
-            lap("metrics")
-            totals["simulate"] += flight.cpu_time
-            totals["metrics"] -= flight.cpu_time
-            steps += flight.integrator_steps
-            sim_time += flight.metrics["sim_time"]
+        scenario = generator.random_field(seed, index, generator.DEFAULT_DENSITY)
+        lap("generate")
+        text = scenario_to_yaml(scenario)  # the client's
+        scenario = task_scenario(text)  # the worker's (once per field)
+        lap("yaml")
+        field_reference(text)
+        lap("reference")
+        built = build_diagram(scenario)
+        lap("build")
+        flight = fly(built, **SWEEP_ENDS)
+        # fly() = the simulation (its own CPU time) + reading the log and
+        # the metrics.
+        lap("metrics")
+        totals["simulate"] += flight.cpu_time
+        totals["metrics"] -= flight.cpu_time
+        steps += flight.integrator_steps
+        sim_time += flight.metrics["sim_time"]
     whole = sum(totals.values())
     say(
         f"2. a sweep flight's CPU time, MFI on {fields} fresh fields at density "
@@ -295,16 +292,13 @@ def by_method(
     with the override `layers`."""
     cpu = dict.fromkeys(COMPARED, 0.0)
     steps = dict.fromkeys(COMPARED, 0)
-    with tempfile.TemporaryDirectory() as out:
-        for index in range(fields):
-            scenario = generator.random_field(
-                seed, index, generator.DEFAULT_DENSITY, out
-            )
-            scenario = with_overrides(scenario, layers)
-            for method in COMPARED:
-                flight = fly(build_diagram(scenario, method), **SWEEP_ENDS)
-                cpu[method] += flight.cpu_time
-                steps[method] += flight.integrator_steps
+    for index in range(fields):
+        scenario = generator.random_field(seed, index, generator.DEFAULT_DENSITY)
+        scenario = with_overrides(scenario, layers)
+        for method in COMPARED:
+            flight = fly(build_diagram(scenario, method), **SWEEP_ENDS)
+            cpu[method] += flight.cpu_time
+            steps[method] += flight.integrator_steps
     say(
         f"4. CPU per flight by method, the same {fields} fresh fields at density "
         f"{generator.DEFAULT_DENSITY:g} (seed {seed}), flown in turn until "

@@ -328,8 +328,8 @@ def test_success_needs_every_vehicle_and_room_between_them():
     assert outcome({**metrics, "vehicles": [one, late]}) == "timeout"
 
 
-def test_moving_fields_move_a_share_at_the_speed_and_keep_clear_of_the_ends(tmp_path):
-    field = random_field(2026, 3, 0.1, str(tmp_path))
+def test_moving_fields_move_a_share_at_the_speed_and_keep_clear_of_the_ends():
+    field = random_field(2026, 3, 0.1)
     moving = set_in_motion(field, 2026, 3, 0.3, 0.5)
     moved = [o for o in moving.obstacles if o.motion is not None]
     assert len(moved) == round(0.3 * len(field.obstacles))
@@ -340,7 +340,7 @@ def test_moving_fields_move_a_share_at_the_speed_and_keep_clear_of_the_ends(tmp_
             m.velocity, m.amplitude, m.angular_frequency, m.phase, times
         )
         np.testing.assert_allclose(np.linalg.norm(rate, axis=1), 0.5, rtol=1e-9)
-        alone = sc.Scenario(obstacles=[obstacle], base_dir=field.base_dir)
+        alone = sc.Scenario(obstacles=[obstacle])
         for end in (field.start, field.goal):
             gap = obstacle_distances(alone, [end] * len(times), times=times)
             assert min(gap) >= 0.225 + 0.5 - 1e-9

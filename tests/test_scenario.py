@@ -9,6 +9,7 @@ import pytest
 
 from mfi_drake.app.cli import main
 from mfi_drake.config.scenario import ScenarioError
+from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
@@ -40,6 +41,25 @@ def test_shipped_scenarios_load():
     for name in names:
         scenario = load_scenario(os.path.join(SCENARIOS, name))
         assert scenario.name == name[:-5]
+
+
+def test_an_inline_convex_is_the_hull_of_its_vertices(write_yaml):
+    """A 1 × 0.8 × 0.6 m box given by its corners and an inner point (which
+    the hull drops), scaled by 2: exact distances from points off its faces
+    are the closed form."""
+    corners = [
+        [x, y, z] for x in (-0.25, 0.25) for y in (-0.2, 0.2) for z in (-0.15, 0.15)
+    ]
+    vertices = str([*corners, [0.0, 0.05, 0.0]])
+    text = GOOD.replace(
+        "!Sphere {radius: 0.5}", f"!Convex {{vertices: {vertices}, scale: 2}}"
+    )
+    scenario = load_scenario(write_yaml(text))
+    (obstacle,) = scenario.obstacles
+    assert obstacle.shape.vertices[-1] == [0.0, 0.05, 0.0] and not obstacle.shape.file
+    points = [[3.0, 0.0, 2.5], [3.0, -1.0, 1.5], [4.0, 0.0, 1.5], [3.0, 0.0, 1.5]]
+    distances = obstacle_distances(scenario, points)
+    assert distances == pytest.approx([0.7, 0.6, 0.5, -0.3], abs=1e-9)
 
 
 def test_overrides_replace_only_the_named_fields(write_yaml):
@@ -96,6 +116,31 @@ BAD = [
         "flat mesh",
         GOOD.replace("!Sphere {radius: 0.5}", "!Convex {file: flat.obj}"),
         "non-coplanar",
+    ),
+    (
+        "flat inline vertices",
+        GOOD.replace(
+            "!Sphere {radius: 0.5}",
+            "!Convex {vertices: [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]}",
+        ),
+        "shape.vertices",
+    ),
+    (
+        "vertex of two numbers",
+        GOOD.replace("!Sphere {radius: 0.5}", "!Convex {vertices: [[0, 0]]}"),
+        "shape.vertices[0]",
+    ),
+    (
+        "file and vertices",
+        GOOD.replace(
+            "!Sphere {radius: 0.5}", "!Convex {file: a.obj, vertices: [[0, 0, 0]]}"
+        ),
+        "one of file and vertices",
+    ),
+    (
+        "neither file nor vertices",
+        GOOD.replace("!Sphere {radius: 0.5}", "!Convex {scale: 2}"),
+        "one of file and vertices",
     ),
     ("not yaml", "name: [unclosed\n", "scenario.yaml"),
     ("wrong type", GOOD.replace("duration: 20.0", "duration: soon"), "duration"),

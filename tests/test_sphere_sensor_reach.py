@@ -10,8 +10,8 @@ from mfi_drake.world import generator
 from mfi_drake.world.obstacles import nearest_obstacles, register_obstacles
 
 
-def test_every_logged_reading_is_the_full_radius_reading(tmp_path):
-    scenario = generator.random_field(3, 0, 0.2, str(tmp_path))
+def test_every_logged_reading_is_the_full_radius_reading():
+    scenario = generator.random_field(3, 0, 0.2)
     flight = simulate(scenario, until_settled=True)
     scene_graph = SceneGraph()
     register_obstacles(scene_graph, scenario)

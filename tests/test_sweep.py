@@ -18,9 +18,10 @@ from mfi_drake.config.faults import Faults
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.studies import sweep
 from mfi_drake.world import generator
-from mfi_drake.world.meshes import read_obj
+from mfi_drake.world.meshes import prism, write_obj
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.reference_path import Clearance, reference_path
+from mfi_drake.world.shapes import bounding_radius, shape_mesh
 from mfi_drake.world.validation import load_scenario, validate_scenario
 
 from .conftest import load_benchmark
@@ -31,8 +32,8 @@ W = generator.DEFAULT_WORKSPACE
 
 # --- the generator ----------------------------------------------------------------
 @pytest.mark.parametrize("index", range(4))
-def test_start_and_goal_are_free_with_clearance(tmp_path, index):
-    field = generator.random_field(3, index, 0.3, str(tmp_path))
+def test_start_and_goal_are_free_with_clearance(index):
+    field = generator.random_field(3, index, 0.3)
     assert len(field.obstacles) == round(0.3 * 200.0) == 60
     d_start, d_goal = obstacle_distances(field, [field.start, field.goal])
     assert min(d_start, d_goal) >= R + W.clearance
@@ -64,22 +65,15 @@ def test_wall_fields_block_the_line_far_from_the_ends_and_are_reproducible():
     assert generator.wall_field(5, 0).obstacles != generator.wall_field(6, 0).obstacles
 
 
-def test_same_seed_same_field_other_index_other_field(tmp_path):
-    a = generator.random_field(7, 2, 0.1, str(tmp_path / "a"))
-    b = generator.random_field(7, 2, 0.1, str(tmp_path / "b"))
-    c = generator.random_field(7, 3, 0.1, str(tmp_path / "c"))
-    assert a.obstacles == b.obstacles  # same shapes, poses and mesh names
-    for o in a.obstacles:
-        if isinstance(o.shape, sc.Convex):
-            for x, y in zip(
-                read_obj(sc.mesh_path(a, o.shape)),
-                read_obj(sc.mesh_path(b, o.shape)),
-                strict=True,
-            ):
-                np.testing.assert_array_equal(x, y)
+def test_same_seed_same_field_other_index_other_field():
+    a = generator.random_field(7, 2, 0.1)
+    b = generator.random_field(7, 2, 0.1)
+    c = generator.random_field(7, 3, 0.1)
+    assert a.obstacles == b.obstacles  # same shapes (vertices too) and poses
+    assert any(isinstance(o.shape, sc.Convex) for o in a.obstacles)
     assert [o.position for o in a.obstacles] != [o.position for o in c.obstacles]
     # A denser field of the same seed and index holds the sparser one.
-    denser = generator.random_field(7, 2, 0.2, str(tmp_path / "d"))
+    denser = generator.random_field(7, 2, 0.2)
     assert [o.position for o in denser.obstacles[:20]] == [
         o.position for o in a.obstacles
     ]
@@ -98,48 +92,66 @@ def _is_convex(vertices: np.ndarray, triangles: np.ndarray) -> bool:
     return True
 
 
-def test_every_shape_kind_appears_randomly_oriented_and_meshes_are_convex(tmp_path):
-    fields = [generator.random_field(0, i, 0.1, str(tmp_path)) for i in range(3)]
+def test_every_shape_kind_appears_randomly_oriented_and_meshes_are_convex():
+    fields = [generator.random_field(0, i, 0.1) for i in range(3)]
     obstacles = [o for f in fields for o in f.obstacles]
     kinds = {type(o.shape).__name__.lower() for o in obstacles}
     assert kinds == {kind.name for kind in generator.SHAPE_KINDS}
     tilted = [o for o in obstacles if not isinstance(o.shape, sc.Sphere)]
     assert all(any(abs(a) > 1e-9 for a in o.rpy_deg) for o in tilted)
     meshes = [o.shape for o in obstacles if isinstance(o.shape, sc.Convex)]
-    assert all(_is_convex(*read_obj(sc.mesh_path(fields[0], m))) for m in meshes)
+    assert meshes and all(m.vertices and not m.file for m in meshes)  # inline
+    # The prisms and icosahedra are their own hulls: every vertex is one of
+    # the hull's (Drake's), and the hull is convex (the independent check).
+    for m in meshes:
+        hull = shape_mesh(fields[0], m)
+        assert _is_convex(*hull)
+        assert len(hull[0]) == len(m.vertices)
     low, high = W.box
     for o in obstacles:
         assert np.all(low <= o.position) and np.all(o.position <= high)
 
 
-def test_written_field_loads_back_equal(tmp_path):
-    field = generator.random_field(5, 1, 0.15, str(tmp_path / "gen"))
+def test_written_field_is_one_file_that_loads_back_equal(tmp_path):
+    field = generator.random_field(5, 1, 0.15)
     path = tmp_path / "out" / "field.yaml"
     generator.write_scenario(field, str(path), header="# a comment\n")
-    loaded = load_scenario(str(path))
-    assert not [f for f in os.listdir(path.parent) if f.startswith(".tmp")]
+    assert os.listdir(path.parent) == ["field.yaml"]  # no mesh files beside it
+    moved = tmp_path / "elsewhere" / "copy.yaml"  # flies from anywhere
+    moved.parent.mkdir()
+    path.rename(moved)
+    loaded = load_scenario(str(moved))
     for f in dataclasses.fields(sc.Scenario):
-        if f.name not in ("obstacles", "base_dir", "simulator"):
+        if f.name not in ("base_dir", "simulator"):
             assert getattr(loaded, f.name) == getattr(field, f.name), f.name
     assert repr(loaded.simulator) == repr(field.simulator)
-    assert len(loaded.obstacles) == len(field.obstacles)
-    convex = 0
-    for mine, theirs in zip(field.obstacles, loaded.obstacles, strict=True):
-        assert (mine.position, mine.rpy_deg) == (theirs.position, theirs.rpy_deg)
-        if isinstance(mine.shape, sc.Convex):
-            convex += 1
-            # Copied next to the YAML, same vertices (OBJ keeps 6 decimals).
-            assert os.path.dirname(sc.mesh_path(loaded, theirs.shape)) == str(
-                path.parent
-            )
-            np.testing.assert_allclose(
-                read_obj(sc.mesh_path(loaded, theirs.shape))[0],
-                read_obj(sc.mesh_path(field, mine.shape))[0],
-                atol=1e-6,
-            )
-        else:
-            assert mine.shape == theirs.shape
-    assert convex > 0
+    assert any(isinstance(o.shape, sc.Convex) for o in loaded.obstacles)
+
+
+def test_self_contained_inlines_mesh_files_and_keeps_the_geometry(tmp_path):
+    """A scenario's OBJ files become inline vertices: the same exact
+    distances (Drake's hull of the same points), the same bounding radii,
+    and the written replay is one file."""
+    (tmp_path / "meshes").mkdir()
+    cube = tmp_path / "meshes" / "cube.obj"
+    write_obj(str(cube), *prism(np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]), 2))
+    wedge = sc.Convex(file="meshes/cube.obj", scale=0.5)
+    scenario = sc.Scenario(
+        obstacles=[sc.Obstacle(wedge, [3.0, 0.2, 1.4], [10.0, 20.0, 30.0])],
+        base_dir=str(tmp_path),
+    )
+    inline = generator.self_contained(scenario)
+    (obstacle,) = inline.obstacles
+    assert not obstacle.shape.file and obstacle.shape.scale == 0.5
+    assert len(obstacle.shape.vertices) == 8 and inline.base_dir == ""
+    points = np.random.default_rng(1).uniform(-1, 6, (50, 3)).tolist()
+    assert obstacle_distances(inline, points) == obstacle_distances(scenario, points)
+    assert bounding_radius(inline, obstacle.shape) == pytest.approx(math.sqrt(3) / 2)
+    generator.write_scenario(scenario, str(tmp_path / "replay" / "r.yaml"))
+    assert os.listdir(tmp_path / "replay") == ["r.yaml"]
+    os.remove(cube)  # the replay reads no file
+    replay = load_scenario(str(tmp_path / "replay" / "r.yaml"))
+    assert obstacle_distances(replay, points) == obstacle_distances(inline, points)
 
 
 # --- the reference path -------------------------------------------------------------
@@ -260,9 +272,12 @@ def test_rerun_after_a_kill_flies_only_the_rest(tmp_path, threads_client):
     assert (third.ran, third.skipped) == (0, 4)
     # Every flight timed out; each is saved as a replayable scenario.
     assert third.summary["methods"]["mfi"]["timeout_rate"] == 1.0
-    failures = sorted(os.listdir(tmp_path / "failures"))
-    yamls = [f for f in failures if f.endswith(".yaml")]
-    assert len(yamls) == 4
+    yamls = sorted(os.listdir(tmp_path / "failures"))
+    assert len(yamls) == 4 and all(f.endswith(".yaml") for f in yamls)
+    # The out folder holds these files only: no mesh files anywhere.
+    assert set(os.listdir(tmp_path)) == {
+        "results.jsonl", "summary.json", "table.md", "failures"
+    }  # fmt: skip
     replay = load_scenario(str(tmp_path / "failures" / yamls[0]))
     assert replay.duration == 1.5
     assert "--method" in (tmp_path / "failures" / yamls[0]).read_text().splitlines()[1]

@@ -11,8 +11,10 @@ import pytest
 
 from mfi_drake import load_scenario
 from mfi_drake.app.cli import main
+from mfi_drake.config import scenario as sc
 from mfi_drake.config.parameters import GfParams, NavigatorParams
 from mfi_drake.flight.methods import METHODS, Gain
+from mfi_drake.studies.compare import PAPER_SCENARIOS
 from mfi_drake.studies.sweep import read_results
 from mfi_drake.studies.tune import (
     TuneConfig,
@@ -108,6 +110,9 @@ def test_same_budget_and_fields_for_every_method_and_toy_optimum(
     # A rerun flies nothing new and finds the same winners.
     again = tune(config, threads_client, progress_stream=None)
     assert len(read_results(str(toy_dir / "tune" / "tune.jsonl"))) == len(records)
+    assert set(os.listdir(toy_dir / "tune")) == {  # no mesh files
+        "tune.jsonl", "tuned.yaml", "tuning.json", "tuning.md"
+    }  # fmt: skip
     assert {m: c.values for m, c in again.items()} == {
         m: c.values for m, c in best.items()
     }
@@ -144,6 +149,20 @@ def test_wall_fields_join_the_training_fields_and_a_negative_count_is_refused(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--walls = -1" in err
     assert not (tmp_path / "t").exists()
+
+
+def test_paper_scenarios_join_the_training_fields_self_contained(tmp_path):
+    """Their mesh files' vertices inline: a remote worker reads no file."""
+    config = TuneConfig(
+        methods=["gf"], n=1, densities=[0.1], paper_scenarios=SCENARIOS,
+        out=str(tmp_path),
+    )  # fmt: skip
+    fields = training_fields(config)
+    assert [s.name for s in fields[1:]] == list(PAPER_SCENARIOS)
+    convex = [o.shape for s in fields for o in s.obstacles
+              if isinstance(o.shape, sc.Convex)]  # fmt: skip
+    assert convex and all(c.vertices and not c.file for c in convex)
+    assert all(s.base_dir == "" for s in fields)
 
 
 def test_moving_fields_join_the_training_fields_and_bad_motion_is_refused(

@@ -192,6 +192,7 @@ def cmd_sweep(args) -> int:
     from mfi_drake.app.figures import plot_sweep
     from mfi_drake.config.faults import faults_from_yaml
     from mfi_drake.studies.sweep import (
+        ClusterError,
         SweepConfig,
         dask_client,
         layered,
@@ -226,7 +227,7 @@ def cmd_sweep(args) -> int:
     )
     modify = partial(layered, overrides=texts, faults=faults)
     try:
-        with dask_client(args.workers, args.scheduler) as client:
+        with dask_client(args.workers, args.scheduler, methods) as client:
             run = run_sweep(config, client, modify)
     except KeyboardInterrupt:
         print(
@@ -235,8 +236,8 @@ def cmd_sweep(args) -> int:
             file=sys.stderr,
         )
         return 130
-    except OSError as e:  # no scheduler at that address
-        raise UsageError(f"--scheduler = {args.scheduler!r}: {e}") from None
+    except ClusterError as e:  # unreachable, refused, no workers, ...
+        raise UsageError(str(e)) from None
     plot_sweep(run.summary, os.path.join(args.out, "sweep.png"))
     if args.json:
         print(json.dumps(_json_safe(run.summary)))
@@ -276,6 +277,7 @@ def cmd_tune(args) -> int:
     _need_dask()
     from mfi_drake.app.figures import plot_sweep
     from mfi_drake.studies.sweep import (
+        ClusterError,
         SweepConfig,
         dask_client,
         override_variant,
@@ -306,24 +308,25 @@ def cmd_tune(args) -> int:
         config.check()
     except TuneError as e:
         raise UsageError(str(e)) from None
-    with dask_client(args.workers, args.scheduler) as client:
-        try:
+    try:
+        with dask_client(args.workers, args.scheduler, methods) as client:
             tune(config, client)
-        except TuneError as e:
-            raise UsageError(str(e)) from None
-        tuned = read_override(os.path.join(args.out, "tuned.yaml"))
-        print(f"wrote {args.out}/tuned.yaml, tuning.md, tuning.json, tune.jsonl")
-        if args.held_out_seed is None:
-            return 0
-        held_out = SweepConfig(
-            n=args.held_out_n,
-            seed=args.held_out_seed,
-            methods=methods,
-            densities=list(dict.fromkeys(args.held_out_density)),
-            out=os.path.join(args.out, "held_out"),
-            variant=override_variant([tuned]),
-        )
-        run = run_sweep(held_out, client, partial(with_overrides, overrides=[tuned]))
+            tuned = read_override(os.path.join(args.out, "tuned.yaml"))
+            print(f"wrote {args.out}/tuned.yaml, tuning.md, tuning.json, tune.jsonl")
+            if args.held_out_seed is None:
+                return 0
+            held_out = SweepConfig(
+                n=args.held_out_n,
+                seed=args.held_out_seed,
+                methods=methods,
+                densities=list(dict.fromkeys(args.held_out_density)),
+                out=os.path.join(args.out, "held_out"),
+                variant=override_variant([tuned]),
+            )
+            modify = partial(with_overrides, overrides=[tuned])
+            run = run_sweep(held_out, client, modify)
+    except (TuneError, ClusterError) as e:
+        raise UsageError(str(e)) from None
     plot_sweep(run.summary, os.path.join(held_out.out, "sweep.png"))
     print(summary_table(run.summary))
     print(f"wrote {held_out.out}/ (held-out fields, seed {args.held_out_seed})")

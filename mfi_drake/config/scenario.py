@@ -78,8 +78,14 @@ class Ellipsoid:
 
 @dataclass
 class Convex:
+    """The convex hull of a mesh file's vertices or of `vertices` given
+    inline (one of the two): a scenario with inline vertices carries its
+    whole geometry, so it flies anywhere (a sweep's fields and failure
+    replays are written so)."""
+
     file: str = ""  # Wavefront OBJ; a relative path is relative to the YAML file
     scale: float = 1.0
+    vertices: list[list[float]] = field(default_factory=list)  # m, in its frame
 
 
 Shape = Box | Sphere | Cylinder | Capsule | Ellipsoid | Convex
@@ -286,6 +292,15 @@ def mesh_path(scenario: Scenario, shape: Convex) -> str:
     return os.path.join(scenario.base_dir, shape.file)
 
 
+def _check_convex(where: str, shape: Convex) -> None:
+    """A file or inline vertices, not both; each vertex 3 finite numbers. The
+    hull's volume is checked with the file's (`world.validation`)."""
+    if bool(shape.file) == bool(shape.vertices):
+        fail(where, "shape", shape, "must give one of file and vertices")
+    for i, vertex in enumerate(shape.vertices):
+        _check_vector(where, f"shape.vertices[{i}]", vertex)
+
+
 def _check_shape(where: str, shape) -> None:
     """Every size of every shape kind is > 0: 3-vectors (Box.size,
     Ellipsoid.radii) component-wise, numbers (radius, length, scale) as a
@@ -293,8 +308,12 @@ def _check_shape(where: str, shape) -> None:
     (`world.validation`)."""
     if not isinstance(shape, Shape):
         fail(where, "shape", shape, "unknown shape")
+    if isinstance(shape, Convex):
+        _check_convex(where, shape)
     for f in dataclasses.fields(shape):
         value = getattr(shape, f.name)
+        if f.name == "vertices":
+            continue
         if isinstance(value, list):
             _check_vector(where, f"shape.{f.name}", value, positive=True)
         elif not isinstance(value, str):

@@ -1,17 +1,22 @@
 """The Monte Carlo benchmark: every method flown on N random fields per
 density (`generator`), on Dask distributed, with confidence intervals.
 
-Flow: the client generates the fields (seeded, cheap), submits one reference
-task per field (`field_reference`, the shortest path of `reference_path`)
-and one flight task per field and method (`fly_field`). Each task carries
-only the scenario as YAML text (plus the method's name or MODULE:NAME and
-the reference numbers) and builds its own diagram in its worker, since
-Drake systems do not pickle; a user's field is imported there by name.
-As each flight finishes, the client appends its record to
-DIR/results.jsonl (one complete line, flushed and fsynced) and, if the
-flight failed, writes its scenario as a replayable YAML under
-DIR/failures/. A rerun with the same arguments reads the file and skips
-every (variant, sensor, density, seed, index, method) already there.
+Flow: the client generates the fields (seeded, cheap), then `run_tasks`
+flies one reference task per field (`field_reference`, the shortest path of
+`reference_path`) and one flight task per field and method (`fly_field`).
+Each task carries its scenario as self-contained YAML text (convex
+obstacles by their vertices: no worker reads a file of the client's) plus
+the method's name or MODULE:NAME and the reference numbers, and builds its
+own diagram in its worker, since Drake systems do not pickle; a user's
+field is imported there by name (`dask_client` ships the client's own
+module file to the workers of a remote cluster, `run_tasks` checks that it
+imports on every worker before any flight). As each flight finishes, the
+client appends its record to DIR/results.jsonl (one complete line, flushed
+and fsynced) and, if the flight failed, writes its scenario as a one-file
+replayable YAML under DIR/failures/. A rerun with the same arguments reads
+the file and skips every (variant, sensor, density, seed, index, method)
+already there. A flight whose worker dies is flown again on another (the
+Dask scheduler reschedules it) and recorded once, when it finishes.
 
 A flight of a static scene with the sphere sensor and no faults ends once
 its vehicle has settled at the goal (`simulation.settles`,
@@ -47,7 +52,7 @@ import os
 import sys
 import time
 import zlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, fields, replace
 from typing import NamedTuple
 
@@ -65,7 +70,7 @@ from mfi_drake.config.scenario import (
 )
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_json, write_text
-from mfi_drake.flight.methods import METHODS
+from mfi_drake.flight.methods import METHODS, MethodError, import_field, resolve_method
 from mfi_drake.flight.simulation import OUTCOMES as FLIGHT_OUTCOMES
 from mfi_drake.flight.simulation import outcome, simulate
 from mfi_drake.world import generator
@@ -156,6 +161,9 @@ def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
     """Flies the scenario with `method` (a registry name or MODULE:NAME);
     the record's outcome and numbers."""
     scenario = task_scenario(scenario_yaml)
+    # A method this worker cannot import fails the task (not recorded; the
+    # sweep reports it lost), unlike a flight that fails.
+    resolve_method(method)
     record = {"scenario": scenario.name, "obstacles": len(scenario.obstacles)}
     if moving := sum(moves(o.motion) for o in scenario.obstacles):
         record["moving"] = moving
@@ -373,10 +381,29 @@ def _failure_path(config: SweepConfig, key: FlightKey, scenario: Scenario) -> st
     return os.path.join(config.out, "failures", f"{name}.yaml")
 
 
+class ClusterError(RuntimeError):
+    """The cluster cannot fly the tasks (unreachable or refused, no workers,
+    a user's field that a worker cannot import); one line for the user."""
+
+
+WORKER_WAIT = 60.0  # s a run waits for a worker, at its start or when all left
+
+
+def _one_line(e: BaseException) -> str:
+    return f"{type(e).__name__}: {' '.join(str(e).split())}"[:300]
+
+
 @contextlib.contextmanager
-def dask_client(workers: int, scheduler: str | None) -> Iterator:
-    """A Dask client of the cluster at `scheduler`, else of a LocalCluster of
-    `workers` single-threaded worker processes; both closed on exit.
+def dask_client(
+    workers: int, scheduler: str | None, methods: Sequence[str] = ()
+) -> Iterator:
+    """A Dask client of the cluster at `scheduler` (tcp:// or tls://, the
+    latter with the certificates of Dask's own configuration:
+    distributed.comm.tls.*, in a config file or DASK_DISTRIBUTED__COMM__TLS__*
+    variables), the client's own modules of `methods` shipped to its workers
+    (`ship_modules`); else of a LocalCluster of `workers` single-threaded
+    worker processes. Closed on exit. Raises ClusterError if the scheduler
+    cannot be reached or refuses the client.
 
     The local workers are forked from a fork server that has imported this
     module (Drake, the simulation, the reference path) once: a spawned
@@ -389,7 +416,20 @@ def dask_client(workers: int, scheduler: str | None) -> Iterator:
     from distributed.utils import get_mp_context
 
     if scheduler:
-        with Client(scheduler, timeout=10) as client:
+        try:
+            client = Client(scheduler, timeout=10)
+        except (OSError, TypeError, ValueError) as e:
+            why = f"({_one_line(e)})"
+            if isinstance(e, TypeError) and scheduler.startswith("tls://"):
+                why = (  # Dask's words: "TLS expects a `ssl_context` argument"
+                    "without a certificate: set Dask's distributed.comm.tls.ca-file, "
+                    ".client.cert and .client.key (or DASK_DISTRIBUTED__COMM__TLS__*)"
+                )
+            raise ClusterError(
+                f"--scheduler = {scheduler!r}: cannot connect {why}"
+            ) from None
+        with client:
+            ship_modules(client, methods)
             yield client
         return
     with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
@@ -405,13 +445,156 @@ def dask_client(workers: int, scheduler: str | None) -> Iterator:
         yield client
 
 
+def _user_modules(methods: Sequence[str]) -> Iterator[str]:
+    """The top-level modules of the MODULE:NAME methods."""
+    for method in methods:
+        if method not in METHODS:
+            yield method.partition(":")[0].partition(".")[0]
+
+
+def ship_modules(client, methods: Sequence[str]) -> None:
+    """Ships the client's own module of each MODULE:NAME method to every
+    worker of the cluster (a Dask worker plugin, so to those joining later
+    too): a .py file, or its top-level package as a zip, written into the
+    worker's directory and put on its import path. An installed module
+    (under site-packages) and this package are not shipped: the workers
+    have their own. Importing is left to the tasks, and to `run_tasks`'
+    check, which names a worker where it fails."""
+    import importlib
+    import shutil
+    import tempfile
+
+    from distributed import WorkerPlugin
+
+    class ShipModule(WorkerPlugin):
+        def __init__(self, filename: str, data: bytes):
+            self.filename, self.data = filename, data
+
+        def setup(self, worker) -> None:
+            path = os.path.join(worker.local_directory, self.filename)
+            with open(path, "wb") as f:
+                f.write(self.data)
+            entry = path if path.endswith(".zip") else worker.local_directory
+            if entry not in sys.path:
+                sys.path.insert(0, entry)
+            importlib.invalidate_caches()
+
+    for name in dict.fromkeys(_user_modules(methods)):
+        path = getattr(importlib.import_module(name), "__file__", None) or ""
+        parts = set(os.path.normpath(path).split(os.sep))
+        if (
+            not path
+            or name == "mfi_drake"
+            or parts & {"site-packages", "dist-packages"}
+        ):
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            if os.path.basename(path) == "__init__.py":
+                package = os.path.dirname(path)
+                path = shutil.make_archive(
+                    os.path.join(tmp, name), "zip", os.path.dirname(package), name
+                )
+            with open(path, "rb") as f:
+                plugin = ShipModule(os.path.basename(path), f.read())
+        client.register_plugin(plugin, name=f"mfi-drake-ship-{name}")
+
+
+def _import_problem(methods: Sequence[str]) -> str | None:
+    """Run on a worker: the first MODULE:NAME that does not import there."""
+    for method in methods:
+        try:
+            import_field(method)
+        except MethodError as e:
+            return str(e)
+    return None
+
+
+def _wait_for_workers(client, why: str) -> None:
+    try:
+        client.wait_for_workers(1, timeout=WORKER_WAIT)
+    except TimeoutError:
+        raise ClusterError(
+            f"the Dask cluster has no workers: {why} within {WORKER_WAIT:g} s"
+        ) from None
+
+
+@dataclass(frozen=True)
+class Task:
+    """A function to run on the cluster: `args` may hold other Tasks, each
+    replaced by its result (run once per key)."""
+
+    key: str  # Dask's key: names the task, the same on a rerun
+    function: Callable
+    args: tuple
+
+
+def run_tasks(
+    client,
+    tasks: Sequence[tuple[object, Task]],
+    on_result: Callable[[object, dict], None],
+    methods: Sequence[str] = (),
+    progress: Progress | None = None,
+) -> list[str]:
+    """Runs every (tag, task) on the cluster and calls on_result(tag, result)
+    once for each as it finishes; returns a line for each task the cluster
+    lost (its worker died `distributed.scheduler.allowed-failures` times,
+    or a MODULE:NAME that its worker could not import): a rerun retries it.
+
+    First waits up to WORKER_WAIT for a worker and checks that every
+    MODULE:NAME of `methods` imports on every worker (ClusterError naming
+    the module and the worker if not). A task whose worker dies is run
+    again on another by the scheduler. If every worker has gone, it waits
+    WORKER_WAIT for one to join, then raises ClusterError (the results
+    handed to on_result stay)."""
+    from distributed import as_completed
+
+    _wait_for_workers(client, "none joined")
+    if user := [m for m in methods if m not in METHODS]:
+        # A worker that dies meanwhile returns its error: it flies nothing.
+        checks = client.run(_import_problem, user, on_error="return")
+        for worker, problem in checks.items():
+            if isinstance(problem, str):
+                raise ClusterError(f"--methods: {problem} on worker {worker}")
+    submitted = {}
+
+    def submit(task: Task):
+        if task.key not in submitted:
+            args = [submit(a) if isinstance(a, Task) else a for a in task.args]
+            submitted[task.key] = client.submit(task.function, *args, key=task.key)
+        return submitted[task.key]
+
+    futures = {submit(task): tag for tag, task in tasks}
+    # The scheduler keeps a dependency while a task needs it; a finished
+    # task's result is let go with its future, as soon as it is handed on.
+    submitted.clear()
+    lost = []
+    pending = as_completed(futures)
+    idle = time.monotonic()
+    while not pending.is_empty():
+        batch = pending.next_batch(block=False)
+        if not batch:
+            if time.monotonic() - idle > 5.0 and not client.nthreads():
+                _wait_for_workers(client, "all left, and none joined")
+                idle = time.monotonic()
+            time.sleep(0.1)
+            continue
+        idle = time.monotonic()
+        for future in batch:
+            tag = futures.pop(future)
+            try:
+                result = future.result()
+            except Exception as e:  # the cluster lost it (a killed worker, ...)
+                lost.append(f"{tag}: {_one_line(e)}")
+                if progress is not None:
+                    progress.step("(lost)")
+                continue
+            on_result(tag, result)
+    return lost
+
+
 def make_field(config: SweepConfig, density: float, index: int) -> Scenario:
     scenario = generator.random_field(
-        config.seed,
-        index,
-        density,
-        os.path.join(config.out, "fields"),
-        sensor=SENSORS[config.sensor](),
+        config.seed, index, density, sensor=SENSORS[config.sensor]()
     )
     if config.moving > 0.0:
         scenario = generator.set_in_motion(
@@ -436,8 +619,6 @@ def run_sweep(
     command draws DIR/sweep.png from the summary). Raises ScenarioError if
     the first field cannot be flown (e.g. a sensor the diagram does not
     support)."""
-    from distributed import as_completed
-
     os.makedirs(config.out, exist_ok=True)
     results_path = os.path.join(config.out, "results.jsonl")
     records = read_results(results_path)
@@ -452,43 +633,34 @@ def run_sweep(
     }
     fields: dict[tuple, Scenario] = {}
     texts: dict[tuple, str] = {}  # each field's YAML, written once
-    futures = {}
+    tasks = []
     for key in todo:
         field_key = key.field
         if field_key not in fields:
             scenario = make_field(config, key.density, key.index)
-            if modify is not None:
-                scenario = modify(scenario)
+            if modify is not None:  # its overrides may name mesh files
+                scenario = generator.self_contained(modify(scenario))
             if not fields:
                 validate_scenario(scenario, scenario.name)
             fields[field_key] = scenario
             texts[field_key] = scenario_to_yaml(scenario)
             if field_key not in known:
-                known[field_key] = client.submit(
+                known[field_key] = Task(
+                    f"reference-{scenario.name}-{key.sensor}-{key.variant}",
                     field_reference,
-                    texts[field_key],
-                    key=f"reference-{scenario.name}-{key.sensor}-{key.variant}",
+                    (texts[field_key],),
                 )
         scenario = fields[field_key]
-        future = client.submit(
+        task = Task(
+            f"flight-{key.method}-{scenario.name}-{key.sensor}-{key.variant}",
             fly_field,
-            texts[field_key],
-            key.method,
-            known[field_key],
-            key=f"flight-{key.method}-{scenario.name}-{key.sensor}-{key.variant}",
+            (texts[field_key], key.method, known[field_key]),
         )
-        futures[future] = key
-    progress = Progress(len(futures), progress_stream)
-    lost = []
+        tasks.append((key, task))
+    progress = Progress(len(tasks), progress_stream)
     with open(results_path, "a") as f:
-        for future in as_completed(futures):
-            key = futures[future]
-            try:
-                result = future.result()
-            except Exception as e:  # the cluster lost it (a killed worker, ...)
-                lost.append(f"{key}: {type(e).__name__}: {str(e)[:200]}")
-                progress.step("(lost)")
-                continue
+
+        def on_result(key: FlightKey, result: dict) -> None:
             record = key._asdict() | result
             append_record(f, record)
             records.append(record)
@@ -507,7 +679,8 @@ def run_sweep(
                     ),
                 )
             progress.step(f"({record['outcome']}: {key.method} {record['scenario']})")
-            del futures[future]
+
+        lost = run_tasks(client, tasks, on_result, config.methods, progress)
     summary = summarize(config, records)
     write_json(os.path.join(config.out, "summary.json"), summary)
     write_text(os.path.join(config.out, "table.md"), summary_table(summary) + "\n")

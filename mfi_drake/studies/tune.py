@@ -31,10 +31,12 @@ The protocol, the same for every method and fixed before any result is seen:
 5. Held-out evaluation: the winners flown on fields of a seed that is not a
    training seed (refused otherwise), through the sweep.
 
-Flights run on Dask like the sweep and are appended to DIR/tune.jsonl as
-they finish; a rerun with the same arguments flies only what is missing
-(the candidates are a deterministic function of the seed and of the results
-already recorded).
+Flights run on Dask like the sweep (`sweep.run_tasks`, on a local or a
+remote cluster; every field self-contained, the paper's scenarios with
+their meshes inline) and are appended to DIR/tune.jsonl as they finish; a
+rerun with the same arguments flies only what is missing (the candidates
+are a deterministic function of the seed and of the results already
+recorded).
 """
 
 import dataclasses
@@ -52,15 +54,18 @@ from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.methods import Gain, Method, resolve_method
 from mfi_drake.studies.compare import PAPER_SCENARIOS
 from mfi_drake.studies.sweep import (
+    ClusterError,
     SweepConfig,
+    Task,
     append_record,
     field_reference,
     fly_field,
     make_field,
     read_results,
+    run_tasks,
     with_overrides,
 )
-from mfi_drake.world.generator import set_in_motion, wall_field
+from mfi_drake.world.generator import self_contained, set_in_motion, wall_field
 from mfi_drake.world.validation import load_scenario
 
 REFINE_SIGMAS = (0.15, 0.07)  # of the unit range, one per refinement round
@@ -205,9 +210,9 @@ class Candidate:
 
 # --- the run ------------------------------------------------------------------------
 def training_fields(config: TuneConfig) -> list[Scenario]:
-    """The sweep's fields of the training seed (meshes under DIR/fields),
-    the same in motion, its wall fields and the paper's scenarios, each if
-    asked for."""
+    """The sweep's fields of the training seed, the same in motion, its wall
+    fields and the paper's scenarios, each if asked for; all
+    self-contained."""
     like = SweepConfig(n=config.n, seed=config.seed, out=config.out)
     grid = [(d, index) for d in config.densities for index in range(config.n)]
     fields = [make_field(like, density, index) for density, index in grid]
@@ -229,7 +234,9 @@ def training_fields(config: TuneConfig) -> list[Scenario]:
     fields += [wall_field(config.seed, index) for index in range(config.walls)]
     if config.paper_scenarios:
         fields += [
-            load_scenario(os.path.join(config.paper_scenarios, f"{name}.yaml"))
+            self_contained(
+                load_scenario(os.path.join(config.paper_scenarios, f"{name}.yaml"))
+            )
             for name in PAPER_SCENARIOS
         ]
     return fields
@@ -259,10 +266,16 @@ def tune(
     done = read_results(results_path)
     fields = training_fields(config)
     texts = {s.name: scenario_to_yaml(s) for s in fields}
-    references = {
-        name: client.submit(field_reference, text, key=f"tune-reference-{name}")
-        for name, text in texts.items()
-    }
+    references: dict[str, dict] = {}
+    _run(
+        client,
+        [
+            (name, Task(f"tune-reference-{name}", field_reference, (text,)))
+            for name, text in texts.items()
+        ],
+        references.__setitem__,
+        config.methods,
+    )
     best = {}
     with open(results_path, "a") as results:
         for name, method in methods.items():
@@ -341,10 +354,8 @@ def _split(total: int, parts: int) -> list[int]:
 def _evaluate(client, method, batch, fields, texts, references, done, record):
     """Flies every candidate of `batch` on every field (those not already in
     `done`), filling each candidate's records."""
-    from distributed import as_completed
-
     known = {(r["candidate"], r["scenario"]): r for r in done}
-    futures = {}
+    tasks = []
     for candidate in batch:
         override = override_text(candidate.values)
         for scenario in fields:
@@ -353,20 +364,32 @@ def _evaluate(client, method, batch, fields, texts, references, done, record):
                 candidate.records.append(known[key])
                 continue
             layered = with_overrides(scenario, [("tune", override)])
-            future = client.submit(
+            task = Task(
+                f"tune-{method.name}-{candidate.index}-{scenario.name}",
                 fly_field,
-                scenario_to_yaml(layered),
-                method.name,
-                references[scenario.name],
-                key=f"tune-{method.name}-{candidate.index}-{scenario.name}",
+                (scenario_to_yaml(layered), method.name, references[scenario.name]),
             )
-            futures[future] = candidate
-    for future in as_completed(futures):
-        candidate = futures[future]
-        result = {"method": method.name, "candidate": candidate.index}
-        result |= {"gains": candidate.values} | future.result()
+            tasks.append((candidate, task))
+
+    def on_result(candidate: Candidate, result: dict) -> None:
+        result = (
+            {"method": method.name, "candidate": candidate.index}
+            | {"gains": candidate.values}
+            | result
+        )
         record(result)
         candidate.records.append(result)
+
+    _run(client, tasks, on_result, [method.name])
+
+
+def _run(client, tasks, on_result, methods) -> None:
+    """`sweep.run_tasks`; a lost task stops the tuning (a rerun resumes)."""
+    lost = run_tasks(client, tasks, on_result, methods)
+    if lost:
+        raise ClusterError(
+            f"{len(lost)} tasks lost ({lost[0]}); rerun the same command to resume"
+        )
 
 
 def _tuned_yaml(config: TuneConfig, winners: dict[str, dict[str, float]]) -> str:

@@ -14,7 +14,8 @@ round(density × 200 m³) obstacles (0.1 → 20). Each obstacle is one of the
 six shape kinds of the scenario format, drawn with equal probability, with a
 uniformly random orientation and sizes in `shapes.SHAPES` (every obstacle fits in a
 ball of radius ≲ 1.3 m). Convex obstacles are random prisms over a convex
-polygon or stretched icosahedra, written as OBJ files into a mesh directory.
+polygon or stretched icosahedra, given by their vertices inline: a field is
+one self-contained scenario, written nowhere until asked (`write_scenario`).
 
 Each candidate obstacle that comes within the vehicle's collision radius plus
 `Workspace.clearance` of the start or the goal (exact SceneGraph distance,
@@ -36,7 +37,6 @@ field.
 
 import dataclasses
 import math
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,9 +48,8 @@ from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_text
-from mfi_drake.world.meshes import read_obj, write_obj
 from mfi_drake.world.obstacles import obstacle_distances
-from mfi_drake.world.shapes import SHAPES
+from mfi_drake.world.shapes import SHAPES, convex_points, mesh_file
 
 # The kinds in the order a field draws them from (the table's order).
 SHAPE_KINDS = tuple(SHAPES.values())
@@ -113,13 +112,13 @@ def random_rpy_deg(rng: np.random.Generator) -> list[float]:
 
 
 def random_obstacle(
-    rng: np.random.Generator, low: np.ndarray, high: np.ndarray, mesh_file: str
+    rng: np.random.Generator, low: np.ndarray, high: np.ndarray
 ) -> sc.Obstacle:
     """One obstacle of a random kind, size and orientation, its centre uniform
-    in the box [low, high]; a convex one's mesh is written to `mesh_file`."""
+    in the box [low, high]."""
     kind = SHAPE_KINDS[rng.integers(len(SHAPE_KINDS))]
     return sc.Obstacle(
-        shape=kind.random(rng, kind.sizes, mesh_file),
+        shape=kind.random(rng, kind.sizes),
         position=[float(x) for x in rng.uniform(low, high)],
         # A sphere's orientation changes nothing; it draws none.
         rpy_deg=[0.0] * 3 if kind.name == "sphere" else random_rpy_deg(rng),
@@ -130,34 +129,27 @@ def random_field(
     seed: int,
     index: int,
     density: float,
-    mesh_dir: str,
     workspace: Workspace = DEFAULT_WORKSPACE,
     vehicle: str = "drake_default",
     sensor: sc.Sensor | None = None,
     duration: float = DEFAULT_DURATION,
 ) -> sc.Scenario:
     """Field `index` of seed `seed` at `density` obstacles per m³ (see the
-    module docstring). Convex meshes are written into `mesh_dir`."""
+    module docstring)."""
     if not (math.isfinite(density) and density >= 0.0):
         raise ValueError(f"density = {density!r}: must be a finite number ≥ 0")
-    os.makedirs(mesh_dir, exist_ok=True)
     name = field_name(seed, index, density)
-    scenario = _field(
-        name, workspace, vehicle, sensor, duration, base_dir=os.path.abspath(mesh_dir)
-    )
+    scenario = _field(name, workspace, vehicle, sensor, duration)
     needed = VEHICLES[vehicle].collision_radius + workspace.clearance
     low, high = workspace.box
     rng = np.random.default_rng([seed, index])
-    for k in range(workspace.obstacle_count(density)):
-        mesh_file = os.path.join(mesh_dir, f"{name}_obstacle{k}.obj")
+    for _ in range(workspace.obstacle_count(density)):
         while True:
-            obstacle = random_obstacle(rng, low, high, mesh_file)
+            obstacle = random_obstacle(rng, low, high)
             alone = dataclasses.replace(scenario, obstacles=[obstacle])
             ends = [workspace.start, workspace.goal]
             if min(obstacle_distances(alone, ends)) >= needed:
                 break
-        if not isinstance(obstacle.shape, sc.Convex) and os.path.exists(mesh_file):
-            os.remove(mesh_file)  # left by a redrawn convex candidate
         scenario.obstacles.append(obstacle)
     return scenario
 
@@ -290,23 +282,25 @@ def set_in_motion(
     return dataclasses.replace(scenario, obstacles=obstacles)
 
 
-def write_scenario(scenario: sc.Scenario, path: str, header: str = "") -> None:
-    """Writes `scenario` as a YAML file that `load_scenario` reads back equal;
-    the mesh of convex obstacle k is copied next to it as <stem>_obstacle<k>.obj.
-    Only fields that differ from the defaults are written. Atomic."""
-    directory = os.path.dirname(os.path.abspath(path))
-    stem = os.path.splitext(os.path.basename(path))[0]
-    os.makedirs(directory, exist_ok=True)
+def self_contained(scenario: sc.Scenario) -> sc.Scenario:
+    """`scenario` with every convex mesh file's vertices inline (Drake flies
+    the hull of either, so the geometry is the same): it then reads no file,
+    and flies on any machine."""
     obstacles = []
-    for k, obstacle in enumerate(scenario.obstacles):
+    for obstacle in scenario.obstacles:
         shape = obstacle.shape
-        if isinstance(shape, sc.Convex):
-            file = f"{stem}_obstacle{k}.obj"
-            write_obj(
-                os.path.join(directory, file), *read_obj(sc.mesh_path(scenario, shape))
-            )
-            shape = dataclasses.replace(shape, file=file)
+        if isinstance(shape, sc.Convex) and shape.file:
+            points = convex_points(shape, mesh_file(scenario, shape))
+            vertices = [[float(x) for x in point] for point in points]
+            shape = sc.Convex(scale=shape.scale, vertices=vertices)
         obstacles.append(dataclasses.replace(obstacle, shape=shape))
-    written = dataclasses.replace(scenario, obstacles=obstacles, base_dir="")
-    text = yaml_dump_typed(written, defaults=sc.Scenario())
+    return dataclasses.replace(scenario, obstacles=obstacles, base_dir="")
+
+
+def write_scenario(scenario: sc.Scenario, path: str, header: str = "") -> None:
+    """Writes `scenario` as one YAML file that `load_scenario` reads back
+    equal up to convex mesh files, whose vertices it holds inline
+    (`self_contained`): the file flies anywhere by itself. Only fields that
+    differ from the defaults are written. Atomic."""
+    text = yaml_dump_typed(self_contained(scenario), defaults=sc.Scenario())
     write_text(path, header + text)

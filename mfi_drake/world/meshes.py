@@ -39,10 +39,6 @@ def read_obj(path: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array(vertices), np.array(faces, dtype=int).reshape(-1, 3)
 
 
-def read_obj_vertices(path: str) -> np.ndarray:
-    return read_obj(path)[0]
-
-
 def write_obj(path: str, vertices: np.ndarray, triangles: np.ndarray) -> None:
     """Writes an OBJ file atomically (temporary name, then rename)."""
     lines = [f"v {v[0]:.6f} {v[1]:.6f} {v[2]:.6f}\n" for v in vertices]

@@ -5,16 +5,17 @@ one. Every piece of code that needs to know a shape's kind reads it here.
 """
 
 import math
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.common import MemoryFile
 from pydrake.geometry import Box as DrakeBox
 from pydrake.geometry import Capsule as DrakeCapsule
 from pydrake.geometry import Convex as DrakeConvex
 from pydrake.geometry import Cylinder as DrakeCylinder
 from pydrake.geometry import Ellipsoid as DrakeEllipsoid
+from pydrake.geometry import InMemoryMesh, MeshSource
 from pydrake.geometry import Sphere as DrakeSphere
 
 from mfi_drake.config import scenario as sc
@@ -26,7 +27,6 @@ from mfi_drake.world.meshes import (
     geodesic_sphere,
     prism,
     read_obj,
-    write_obj,
 )
 
 Mesh = tuple[np.ndarray, np.ndarray]  # vertices (N, 3), triangles (M, 3)
@@ -39,13 +39,14 @@ class ShapeKind:
     mesh: Callable[[object, str], Mesh]  # (shape, mesh file) -> in its own frame
     radius: Callable[[object, str], float]  # (shape, mesh file) -> bounding radius
     sizes: tuple  # ranges [m] the random fields draw sizes from, uniformly
-    random: Callable  # (rng, sizes, mesh file) -> a random shape of this kind
+    random: Callable  # (rng, sizes) -> a random shape of this kind
 
 
-def _random_convex(rng: np.random.Generator, sizes, mesh_file: str) -> sc.Convex:
+def _random_convex(rng: np.random.Generator, sizes) -> sc.Convex:
     """A random convex polytope: a prism over 3–7 points on an ellipse taken in
     angular order (so the polygon is convex), or a stretched icosahedron;
-    written to `mesh_file`."""
+    its vertices inline, to the micrometre (as the fields' OBJ files held
+    them, so the fields are those they were)."""
     low, high = sizes
     if rng.random() < 0.5:
         k = int(rng.integers(3, 8))
@@ -57,13 +58,45 @@ def _random_convex(rng: np.random.Generator, sizes, mesh_file: str) -> sc.Convex
     else:
         vertices, triangles = geodesic_sphere(0)
         mesh = vertices * rng.uniform(low, high, 3), triangles
-    write_obj(mesh_file, *mesh)
-    return sc.Convex(file=os.path.basename(mesh_file), scale=1.0)
+    return sc.Convex(vertices=[[round(float(x), 6) for x in v] for v in mesh[0]])
+
+
+def convex_points(shape: sc.Convex, mesh_file: str) -> np.ndarray:
+    """(N, 3) points whose hull the shape is, unscaled: its inline vertices,
+    else its file's."""
+    if shape.vertices:
+        return np.array(shape.vertices, dtype=float)
+    return read_obj(mesh_file)[0]
+
+
+def _drake_convex(shape: sc.Convex, mesh_file: str) -> DrakeConvex:
+    """Drake's Convex of a file, or of inline vertices as an in-memory OBJ
+    (Drake takes the hull of either's vertices): nothing read from disk."""
+    if not shape.vertices:
+        return DrakeConvex(mesh_file, shape.scale)
+    text = "".join(
+        f"v {float(x)!r} {float(y)!r} {float(z)!r}\n" for x, y, z in shape.vertices
+    )
+    memory = MemoryFile(text, ".obj", "inline convex vertices")
+    return DrakeConvex(MeshSource(InMemoryMesh(mesh_file=memory)), shape.scale)
 
 
 def _convex_mesh(shape: sc.Convex, mesh_file: str) -> Mesh:
-    vertices, triangles = read_obj(mesh_file)
-    return vertices * shape.scale, triangles
+    """The file's mesh, or the hull Drake computes of inline vertices (its
+    polygons fanned into triangles)."""
+    if not shape.vertices:
+        vertices, triangles = read_obj(mesh_file)
+        return vertices * shape.scale, triangles
+    hull = _drake_convex(shape, mesh_file).GetConvexHull()
+    vertices = np.array([hull.vertex(i) for i in range(hull.num_vertices())])
+    triangles = []
+    for f in range(hull.num_elements()):
+        face = hull.element(f)
+        corners = [face.vertex(k) for k in range(face.num_vertices())]
+        triangles += [
+            [corners[0], corners[k], corners[k + 1]] for k in range(1, len(corners) - 1)
+        ]
+    return vertices, np.array(triangles, dtype=int).reshape(-1, 3)
 
 
 def _uniform(rng, size, n=None):
@@ -77,7 +110,7 @@ SHAPES: dict[type, ShapeKind] = {
         mesh=lambda s, _: box_mesh(s.size),
         radius=lambda s, _: 0.5 * float(np.linalg.norm(s.size)),
         sizes=(0.3, 1.5),  # each edge
-        random=lambda rng, size, _: sc.Box(size=_uniform(rng, size, 3)),
+        random=lambda rng, size: sc.Box(size=_uniform(rng, size, 3)),
     ),
     sc.Sphere: ShapeKind(
         "sphere",
@@ -85,7 +118,7 @@ SHAPES: dict[type, ShapeKind] = {
         mesh=lambda s, _: ellipsoid_mesh([s.radius] * 3),
         radius=lambda s, _: s.radius,
         sizes=(0.25, 0.75),  # radius
-        random=lambda rng, size, _: sc.Sphere(radius=_uniform(rng, size)),
+        random=lambda rng, size: sc.Sphere(radius=_uniform(rng, size)),
     ),
     sc.Cylinder: ShapeKind(
         "cylinder",
@@ -93,7 +126,7 @@ SHAPES: dict[type, ShapeKind] = {
         mesh=lambda s, _: cylinder_mesh(s.radius, s.length),
         radius=lambda s, _: math.hypot(s.radius, 0.5 * s.length),
         sizes=((0.15, 0.5), (0.5, 2.0)),  # radius, length
-        random=lambda rng, size, _: sc.Cylinder(*(_uniform(rng, r) for r in size)),
+        random=lambda rng, size: sc.Cylinder(*(_uniform(rng, r) for r in size)),
     ),
     sc.Capsule: ShapeKind(
         "capsule",
@@ -101,7 +134,7 @@ SHAPES: dict[type, ShapeKind] = {
         mesh=lambda s, _: capsule_mesh(s.radius, s.length),
         radius=lambda s, _: s.radius + 0.5 * s.length,
         sizes=((0.15, 0.45), (0.3, 1.5)),  # radius, length of the straight part
-        random=lambda rng, size, _: sc.Capsule(*(_uniform(rng, r) for r in size)),
+        random=lambda rng, size: sc.Capsule(*(_uniform(rng, r) for r in size)),
     ),
     sc.Ellipsoid: ShapeKind(
         "ellipsoid",
@@ -109,14 +142,14 @@ SHAPES: dict[type, ShapeKind] = {
         mesh=lambda s, _: ellipsoid_mesh(s.radii),
         radius=lambda s, _: max(s.radii),
         sizes=(0.2, 0.8),  # each semi-axis
-        random=lambda rng, size, _: sc.Ellipsoid(radii=_uniform(rng, size, 3)),
+        random=lambda rng, size: sc.Ellipsoid(radii=_uniform(rng, size, 3)),
     ),
     sc.Convex: ShapeKind(
         "convex",
-        drake=lambda s, path: DrakeConvex(path, s.scale),
+        drake=_drake_convex,
         mesh=_convex_mesh,
         radius=lambda s, path: (
-            s.scale * float(np.max(np.linalg.norm(read_obj(path)[0], axis=1)))
+            s.scale * float(np.max(np.linalg.norm(convex_points(s, path), axis=1)))
         ),
         sizes=(0.3, 0.8),  # polygon semi-axes / icosahedron radii
         random=_random_convex,
@@ -133,8 +166,10 @@ def shape_kind(shape) -> ShapeKind:
 
 
 def mesh_file(scenario: sc.Scenario, shape) -> str:
-    """The mesh file a shape reads ("" for the primitives)."""
-    return sc.mesh_path(scenario, shape) if isinstance(shape, sc.Convex) else ""
+    """The mesh file a shape reads ("" for the primitives and inline vertices)."""
+    if isinstance(shape, sc.Convex) and shape.file:
+        return sc.mesh_path(scenario, shape)
+    return ""
 
 
 def drake_shape(scenario: sc.Scenario, shape):

@@ -9,21 +9,24 @@ import numpy as np
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.vehicles import VEHICLES
-from mfi_drake.world.meshes import read_obj_vertices
 from mfi_drake.world.obstacles import obstacle_distances
+from mfi_drake.world.shapes import convex_points, mesh_file
 
 
 def _check_mesh(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
-    path = sc.mesh_path(scenario, shape)
-    if not shape.file or not os.path.isfile(path):
-        sc.fail(where, "shape.file", shape.file, f"no such file ({path})")
+    """A readable mesh file or inline vertices, spanning a volume."""
+    name, value = "shape.vertices", shape.vertices
+    if shape.file:
+        name, value, path = "shape.file", shape.file, sc.mesh_path(scenario, shape)
+        if not os.path.isfile(path):
+            sc.fail(where, name, value, f"no such file ({path})")
     try:
-        vertices = read_obj_vertices(path)
+        vertices = convex_points(shape, mesh_file(scenario, shape))
     except ValueError as e:
-        sc.fail(where, "shape.file", shape.file, str(e))
+        sc.fail(where, name, value, str(e))
     centred = vertices - vertices.mean(axis=0)
     if len(vertices) < 4 or np.linalg.matrix_rank(centred, tol=1e-9) < 3:
-        sc.fail(where, "shape.file", shape.file, "needs 4+ non-coplanar vertices")
+        sc.fail(where, name, value, "needs 4+ non-coplanar vertices")
 
 
 def validate_scenario(scenario: sc.Scenario, where: str) -> None:
