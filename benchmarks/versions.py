@@ -107,6 +107,7 @@ def main(argv: list[str] | None = None) -> dict:
     a, b = (best[p] for p in args.pythons)
     for key, what in (
         ("realtime_factor", "real-time factor"),
+        ("cpu_realtime_factor", "CPU real-time factor"),
         ("flights_per_minute", "flights/min"),
     ):
         say(
