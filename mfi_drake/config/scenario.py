@@ -189,7 +189,7 @@ def default_simulator_config() -> SimulatorConfig:
 class Scenario:
     name: str = "unnamed"
     start: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.5])  # m
-    goal: list[float] = field(default_factory=lambda: [5.0, 0.0, 1.5])  # m
+    goal: list[float] = field(default_factory=list)  # m; required: no default
     duration: float = 30.0  # s of simulated time
     vehicle: str = "drake_default"
     sensor: Sensor = field(default_factory=SphereSensor)
@@ -336,6 +336,11 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     if not scenario.name:
         fail(where, "name", scenario.name, "must not be empty")
     _check_vector(where, "start", scenario.start)
+    if scenario.goal == []:
+        raise ScenarioError(
+            f"{where}: goal: missing; every scenario names the point [x, y, z] "
+            "(m) its vehicle flies to"
+        )
     _check_vector(where, "goal", scenario.goal)
     _check_positive(where, "duration", scenario.duration)
     _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
