@@ -119,8 +119,13 @@ def method_style(i: int, count: int, path: np.ndarray) -> dict:
 
 
 def plot_flights(scenario: Scenario, flights: list, path: str, title: str = "") -> None:
-    """Writes the figure of one scenario flown by one or more methods: the
-    3-D view, the top (x–y) view, path length and position error."""
+    """Writes the figure of one scenario flown by one or more methods."""
+    write_figure(flights_figure(scenario, flights, title), path)
+
+
+def flights_figure(scenario: Scenario, flights: list, title: str = "") -> Figure:
+    """The figure of one scenario flown by one or more methods: the 3-D view,
+    the top (x–y) view, path length and position error."""
     fig = Figure(figsize=(18, 6.5))
     grid = fig.add_gridspec(2, 3, width_ratios=(1.15, 1.0, 1.1))
     ax3d = fig.add_subplot(grid[:, 0], projection="3d")
@@ -197,7 +202,7 @@ def plot_flights(scenario: Scenario, flights: list, path: str, title: str = "") 
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=9)
     fig.suptitle(title or f"{scenario.name} ({scenario.vehicle})")
     fig.tight_layout(rect=(0, 0.06, 1, 0.95))
-    write_figure(fig, path)
+    return fig
 
 
 def write_comparison_figure(scenario: Scenario, flights: list, path: str) -> None:
