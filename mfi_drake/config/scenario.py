@@ -230,6 +230,16 @@ def _check_vector(where, name, value, positive=False):
             fail(where, name, value, "must be > 0")
 
 
+def _check_goal(where: str, name: str, goal: list[float]) -> None:
+    """A goal has no default: an empty one was not given."""
+    if goal == []:
+        raise ScenarioError(
+            f"{where}: {name}: missing; every vehicle needs the point [x, y, z] "
+            "(m) it flies to"
+        )
+    _check_vector(where, name, goal)
+
+
 def _check_positive(where, name, value):
     if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
         fail(where, name, value, "must be a finite number > 0")
@@ -317,7 +327,7 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
             fail(where, "ground.height", height, "must be a finite number")
     for i, other in enumerate(scenario.other_vehicles):
         _check_vector(where, f"other_vehicles[{i}].start", other.start)
-        _check_vector(where, f"other_vehicles[{i}].goal", other.goal)
+        _check_goal(where, f"other_vehicles[{i}].goal", other.goal)
     if scenario.other_vehicles and scenario.faults != Faults():
         fail(
             where, "other_vehicles", scenario.other_vehicles, "are flown without faults"
@@ -336,12 +346,7 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     if not scenario.name:
         fail(where, "name", scenario.name, "must not be empty")
     _check_vector(where, "start", scenario.start)
-    if scenario.goal == []:
-        raise ScenarioError(
-            f"{where}: goal: missing; every scenario names the point [x, y, z] "
-            "(m) its vehicle flies to"
-        )
-    _check_vector(where, "goal", scenario.goal)
+    _check_goal(where, "goal", scenario.goal)
     _check_positive(where, "duration", scenario.duration)
     _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
     if scenario.vehicle not in VEHICLES:
