@@ -3,7 +3,10 @@
 Every command validates its input before anything is simulated: a bad
 scenario, override, method or argument is reported as one line on stderr
 with exit status 2, and nothing is written. A user's field that fails in
-flight is reported as one line too (exit status 1).
+flight is reported as one line too (exit status 1). `run` and `compare`
+exit 1 when a flight collided or timed out (0: every flight succeeded),
+with their outputs written all the same; each command's --help (built with
+`HelpFormatter`, which shows every default) lists its exit statuses.
 """
 
 import argparse
