@@ -450,7 +450,9 @@ def add_parser(sub, name: str, help: str, exit_status: str, **kwargs):
     return sub.add_parser(
         name,
         help=help,
-        description=kwargs.pop("description", help[0].upper() + help[1:] + "."),
+        description=textwrap.fill(
+            kwargs.pop("description", help[0].upper() + help[1:] + "."), 78
+        ),
         epilog=exit_status,
         formatter_class=HelpFormatter,
         **kwargs,
@@ -613,7 +615,8 @@ def make_parser() -> argparse.ArgumentParser:
         type=int,
         default=min(len(PAPER_SCENARIOS), os.cpu_count() or 1),
         help="processes flying the scenarios at once, 1 to "
-        f"{len(PAPER_SCENARIOS)} (default: %(default)s, one per core)",
+        f"{len(PAPER_SCENARIOS)} (default: %(default)s, one per core, at most "
+        f"{len(PAPER_SCENARIOS)})",
     )
     rep.set_defaults(func=cmd_reproduce)
 
