@@ -6,6 +6,7 @@ import os
 
 import pytest
 
+from mfi_drake.app.animation import titled_page
 from mfi_drake.app.cli import main
 from mfi_drake.studies.compare import (
     CLAIMS,
@@ -51,7 +52,20 @@ def test_run_json_carries_the_method_and_html_is_written(tmp_path, capsys):
     text = html.read_text()
     assert text.lstrip().lower().startswith("<!doctype html") or "<html" in text[:500]
     assert "set_animation" in text or len(text) > 100_000
+    assert "<title>planar_wall: GF (mfi-drake)</title>" in text
+    assert text.count('<div id="legend"') == 1 and "GF (failed)</div>" in text
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".tmp-")]
+
+
+def test_the_page_title_is_the_text_given_escaped():
+    page = "<html><head><title>Drake MeshCat</title></head><body>\n<p>x</p>"
+    titled = titled_page(page, r"a\1 <b> & c", '<div id="legend">L</div>')
+    assert titled == (
+        "<html><head><title>a\\1 &lt;b&gt; &amp; c</title></head>"
+        '<body><div id="legend">L</div>\n<p>x</p>'
+    )
+    with pytest.raises(RuntimeError, match="no <title>"):
+        titled_page("<html><body></body>", "t", "")
 
 
 @pytest.mark.parametrize("value", ["mfi,foo", "mfi,mfi", "", "MFI"])

@@ -192,10 +192,10 @@ def legend_html(flights: list[Flight]) -> str:
 def titled_page(page: str, title: str, legend: str) -> str:
     """Meshcat's static page with `title` as its <title> and `legend` at the
     top of its <body>."""
-    page, titled = re.subn(
-        r"<title>.*?</title>", f"<title>{html.escape(title)}</title>", page, count=1
-    )
-    page, bodied = re.subn(r"(<body[^>]*>)", rf"\1{legend}", page, count=1)
+    # Replaced by functions: a scenario's name may hold a backslash.
+    new_title = f"<title>{html.escape(title)}</title>"
+    page, titled = re.subn(r"<title>.*?</title>", lambda _: new_title, page, count=1)
+    page, bodied = re.subn(r"<body[^>]*>", lambda m: m[0] + legend, page, count=1)
     if not (titled and bodied):  # a Meshcat page of another shape
         raise RuntimeError("Meshcat's static page has no <title> or <body>")
     return page
