@@ -256,7 +256,7 @@ def test_baseline_systems_convert_to_autodiff():
 
 @pytest.mark.parametrize("method", ["apf", "gf"])
 def test_baseline_diagram_has_the_mfi_ports_and_log(method):
-    flight = build_diagram(Scenario(), method)
+    flight = build_diagram(Scenario(goal=[5.0, 0.0, 1.5]), method)
     navigator = flight.diagram.GetSubsystemByName("navigator")
     for port in ("obstacle_force", "obstacle_force_terms"):
         assert navigator.HasOutputPort(port)
@@ -275,12 +275,15 @@ def test_baseline_diagram_has_the_mfi_ports_and_log(method):
 )
 def test_bad_baseline_gains_are_named(write_yaml, text, named):
     with pytest.raises(ScenarioError, match=named.replace(".", r"\.")):
-        load_scenario(write_yaml(f"name: t\n{text}\n"))
+        load_scenario(write_yaml(f"name: t\ngoal: [5, 0, 1.5]\n{text}\n"))
 
 
 def test_baseline_gains_load_from_the_scenario(write_yaml):
     scenario = load_scenario(
-        write_yaml("name: t\napf: {eta: 0.7, attraction: {v_max: 0.5}}\ngf: {k_g: 9}\n")
+        write_yaml(
+            "name: t\ngoal: [5, 0, 1.5]\n"
+            "apf: {eta: 0.7, attraction: {v_max: 0.5}}\ngf: {k_g: 9}\n"
+        )
     )
     assert scenario.apf.eta == 0.7 and scenario.apf.attraction.v_max == 0.5
     # the unnamed fields keep APF's own defaults, not AttractionParams'

@@ -334,6 +334,7 @@ def test_the_depth_camera_form_is_a_rig_of_one_camera(write_yaml):
     path = write_yaml(
         """\
         name: rig
+        goal: [5.0, 0.0, 1.5]
         sensor: !DepthCameraRig
           rate_hz: 15.0
           cameras:

@@ -6,11 +6,13 @@ import os
 
 import pytest
 
+from mfi_drake.app.animation import titled_page
 from mfi_drake.app.cli import main
 from mfi_drake.studies.compare import (
     CLAIMS,
     PAPER_SCENARIOS,
     claim_lines,
+    flown_with,
     results_table,
 )
 
@@ -20,12 +22,8 @@ WALL = os.path.join(SCENARIOS, "planar_wall.yaml")
 
 
 def test_compare_json_on_the_wall_gives_the_paper_outcomes(tmp_path, capsys):
-    assert (
-        main(
-            ["compare", WALL, "--methods", "mfi,apf", "--json", "--out", str(tmp_path)]
-        )
-        == 0
-    )
+    args = ["compare", WALL, "--methods", "mfi,apf", "--json", "--out", str(tmp_path)]
+    assert main(args) == 1  # APF does not reach the goal
     out = json.loads(capsys.readouterr().out)
     assert out["scenario"] == "planar_wall"
     assert [r["method"] for r in out["results"]] == ["mfi", "apf"]
@@ -45,12 +43,29 @@ def test_compare_json_on_the_wall_gives_the_paper_outcomes(tmp_path, capsys):
 def test_run_json_carries_the_method_and_html_is_written(tmp_path, capsys):
     html = tmp_path / "flight.html"
     args = ["run", WALL, "--method", "gf", "--json", "--out", str(tmp_path)]
-    assert main([*args, "--html", str(html)]) == 0
-    assert json.loads(capsys.readouterr().out)["method"] == "gf"
+    # GF, with the shipped gains, times out at the wall: exit status 1, and
+    # every output is written all the same.
+    assert main([*args, "--html", str(html)]) == 1
+    metrics = json.loads(capsys.readouterr().out)
+    assert metrics["method"] == "gf" and metrics["outcome"] == "timeout"
+    assert (tmp_path / "trajectory.png").stat().st_size > 10_000
     text = html.read_text()
     assert text.lstrip().lower().startswith("<!doctype html") or "<html" in text[:500]
     assert "set_animation" in text or len(text) > 100_000
+    assert "<title>planar_wall: GF (mfi-drake)</title>" in text
+    assert text.count('<div id="legend"') == 1 and "GF (failed)</div>" in text
     assert not [p for p in os.listdir(tmp_path) if p.startswith(".tmp-")]
+
+
+def test_the_page_title_is_the_text_given_escaped():
+    page = "<html><head><title>Drake MeshCat</title></head><body>\n<p>x</p>"
+    titled = titled_page(page, r"a\1 <b> & c", '<div id="legend">L</div>')
+    assert titled == (
+        "<html><head><title>a\\1 &lt;b&gt; &amp; c</title></head>"
+        '<body><div id="legend">L</div>\n<p>x</p>'
+    )
+    with pytest.raises(RuntimeError, match="no <title>"):
+        titled_page("<html><body></body>", "t", "")
 
 
 @pytest.mark.parametrize("value", ["mfi,foo", "mfi,mfi", "", "MFI"])
@@ -126,23 +141,40 @@ def test_results_table_has_a_row_per_run():
     assert "12.00 s" in lines[2] and "–" in lines[3]
 
 
-def test_reproduce_writes_every_figure_and_results(tmp_path):
-    # The paper's scenarios, cut to 0.5 s: the files, not the outcomes.
-    scenario_dir = tmp_path / "scenarios"
-    for name in PAPER_SCENARIOS:
-        with open(os.path.join(SCENARIOS, f"{name}.yaml")) as f:
-            text = f.read()
-        text = text.replace("duration: 40.0", "duration: 0.5")
-        text = text.replace("meshes/", os.path.join(SCENARIOS, "meshes") + "/")
-        scenario_dir.mkdir(exist_ok=True)
-        (scenario_dir / f"{name}.yaml").write_text(text)
+def test_reproduce_writes_every_figure_and_results(tmp_path, capsys):
+    # The paper's scenarios, cut to 0.5 s: the files and what is printed, not
+    # the outcomes; two processes fly them.
     out = tmp_path / "out"
-    assert main(["reproduce", "--scenarios", str(scenario_dir), "--out", str(out)]) == 0
+    args = ["reproduce", "--out", str(out), "--workers", "2"]
+    assert main([*args, "--scenarios", SCENARIOS, "--set", "duration: 0.5"]) == 0
     for name in PAPER_SCENARIOS:
         assert (out / f"{name}.png").stat().st_size > 10_000
     text = (out / "results.md").read_text()
     for label in ("MFI", "MFI (paper)", "APF", "GF"):
         assert text.count(f"| {label} |") == len(PAPER_SCENARIOS)
     assert text.count("| planar_wall |") == 4
-    # Four claims, judged with the default MFI and with the paper's.
+    # Four claims, judged with the default MFI and with the paper's; in 0.5 s
+    # nothing reaches its goal, so only claim 1 (APF stops short) can hold.
     assert text.count("did not hold") + text.count("**held**") == 8
+    assert "with --set 'duration: 0.5' layered on the scenarios" in text
+    printed = capsys.readouterr().out.splitlines()
+    assert "with --set 'duration: 0.5' layered on the scenarios" in printed[0]
+    assert sorted(line.split(":")[0] for line in printed[1:5]) == sorted(
+        PAPER_SCENARIOS
+    )
+    verdicts = [line for line in printed if line.startswith("  ")]
+    assert len(verdicts) == 8 and all(
+        line.endswith("did not hold") for i, line in enumerate(verdicts) if i % 4
+    )
+
+
+def test_reproduce_names_the_gains_and_refuses_bad_workers(tmp_path, capsys):
+    assert flown_with([]).startswith("with the shipped gains")
+    assert flown_with(["--override t.yaml", "--set 'x: 1'"]) == (
+        "with --override t.yaml, --set 'x: 1' layered on the scenarios"
+    )
+    for workers in ("0", "5"):
+        assert main(["reproduce", "--workers", workers, "--out", str(tmp_path)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"--workers = {workers}: must be 1 to 4" in err
+    assert not any(tmp_path.iterdir())

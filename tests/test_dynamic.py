@@ -409,6 +409,11 @@ BAD = [
         ("goal: [0.0, 1.0, 1.5]", "goal: [0.0, .nan, 1.5]"),
         "other_vehicles[0].goal",
     ),
+    (
+        "other vehicle without goal",
+        (", goal: [0.0, 1.0, 1.5]", ""),
+        "other_vehicles[0].goal: missing",
+    ),
 ]
 
 

@@ -195,7 +195,7 @@ def test_weak_rotor_scales_one_rotor_and_the_log_keeps_the_true_state():
     ],
 )
 def test_bad_faults_are_rejected_naming_the_field(write_yaml, faults, field):
-    path = write_yaml(f"name: x\nfaults: {faults}\n")
+    path = write_yaml(f"name: x\ngoal: [5, 0, 1.5]\nfaults: {faults}\n")
     with pytest.raises(ScenarioError, match=rf"{path}: {field} = "):
         load_scenario(path)
 

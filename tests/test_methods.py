@@ -105,18 +105,21 @@ def test_a_user_field_equal_to_apf_flies_the_apf_flight_exactly():
 def test_run_flies_a_user_field_by_module_name(user_dir, capsys):
     out = user_dir / "out"
     args = ["run", PLANAR_WALL, "--method", "my_nav:field", "--out", str(out)]
-    assert main([*args, "--json"]) == 0
+    # A naive field: it reaches the goal through the wall, a collision, so
+    # exit status 1, with every output written all the same.
+    assert main([*args, "--json"]) == 1
     metrics = json.loads(capsys.readouterr().out)
     assert metrics["method"] == "my_nav:field"
-    # A naive field: it reaches the goal, through the wall or round it.
     assert metrics["reached"] and metrics["path_length"] >= 8.0
+    assert metrics["outcome"] == "collision"
     assert (out / "trajectory.png").stat().st_size > 10_000
 
 
 def test_compare_draws_and_tabulates_a_user_field_with_its_label(user_dir, capsys):
     out = user_dir / "out"
     args = ["compare", PLANAR_WALL, "--methods", "mfi,my_nav:field"]
-    assert main([*args, "--out", str(out), "--set", "duration: 3.0"]) == 0
+    # In 3 s neither reaches the goal: exit status 1.
+    assert main([*args, "--out", str(out), "--set", "duration: 3.0"]) == 1
     table = capsys.readouterr().out
     assert "| planar_wall | field |" in table and "| planar_wall | MFI |" in table
     assert (out / "compare.png").stat().st_size > 10_000
@@ -201,7 +204,7 @@ def test_set_and_override_layer_on_the_file_in_order(tmp_path, capsys):
     tuned.write_text("navigator: {c: 5.0}\nduration: 2.0\n")
     args = ["run", PLANAR_WALL, "--out", str(tmp_path / "o"), "--json"]
     args += ["--override", str(tuned), "--set", "duration: 1.0"]
-    assert main(args) == 0
+    assert main(args) == 1  # 1 s is a time-out
     metrics = json.loads(capsys.readouterr().out)
     assert metrics["sim_time"] == pytest.approx(1.0)
     base = load_scenario(PLANAR_WALL)

@@ -142,6 +142,8 @@ BAD = [
         GOOD.replace("!Sphere {radius: 0.5}", "!Convex {scale: 2}"),
         "one of file and vertices",
     ),
+    ("no goal", GOOD.replace("goal: [6.0, 0.0, 1.5]\n", ""), "goal: missing"),
+    ("empty goal", GOOD.replace("[6.0, 0.0, 1.5]", "[]"), "goal: missing"),
     ("not yaml", "name: [unclosed\n", "scenario.yaml"),
     ("wrong type", GOOD.replace("duration: 20.0", "duration: soon"), "duration"),
 ]
@@ -177,3 +179,15 @@ def test_console_script_exit_status(write_yaml):
     )
     assert done.returncode == 2
     assert "Traceback" not in done.stderr and "zeppelin" in done.stderr
+
+
+def test_a_scenario_without_goal_is_exit_2_unless_an_override_gives_it(
+    write_yaml, tmp_path, capsys
+):
+    path = write_yaml(GOOD.replace("goal: [6.0, 0.0, 1.5]\n", ""))
+    out = tmp_path / "out"
+    assert main(["run", path, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{path}: goal: missing" in err
+    assert not out.exists()
+    assert load_scenario(path, [("--set", "goal: [6, 0, 1.5]")]).goal == [6, 0, 1.5]

@@ -128,7 +128,9 @@ def test_only_the_nearest_obstacles_are_reported():
 
 
 def test_the_vehicle_never_sees_itself():
-    scenario = sc.Scenario(obstacles=[sc.Obstacle(sc.Sphere(0.5), [9.0, 9.0, 9.0])])
+    scenario = sc.Scenario(
+        goal=[5.0, 0.0, 1.5], obstacles=[sc.Obstacle(sc.Sphere(0.5), [9.0, 9.0, 9.0])]
+    )
     flight = build_diagram(scenario)
     context = flight.diagram.CreateDefaultContext()
     x0 = np.zeros(12)
@@ -145,6 +147,7 @@ def test_flight_clearance_with_a_reach_equals_the_query_against_every_obstacle(y
     nothing was near); the oracle queries every obstacle at every step. A
     sphere beside the line (y = 1) and one far from the whole flight (y = 9)."""
     scenario = sc.Scenario(
+        goal=[5.0, 0.0, 1.5],
         obstacles=[
             sc.Obstacle(sc.Sphere(0.5), [5.0, y, 2.0]),
             sc.Obstacle(sc.Box([1.0, 1.0, 1.0]), [5.0, -y - 3.0, 2.0]),

@@ -1,22 +1,27 @@
 """The figures of `analysis`: eigenvalues and root loci, power of the
 zero-work terms, heading decay (eq 17), region of attraction, drawn from
-the series `studies.analysis.run_analysis` returns."""
+the series `studies.analysis.run_analysis` returns. Each writes its figure
+and returns it."""
+
+import textwrap
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from mfi_drake.app.figures import write_figure
 
+SOS_BALL = "SOS-certified ball (reduced model)"
 GAIN_LABELS = {"K_P": "K_P", "K_D": "K_D", "K_Ptheta": "K_Pθ", "K_Dtheta": "K_Dθ"}
 TERM_COLOURS = {"F": "tab:blue", "F_a": "tab:orange", "F_gc": "tab:green"}
 
 
-def _save(fig: Figure, path: str) -> None:
+def _save(fig: Figure, path: str) -> Figure:
     fig.tight_layout()
     write_figure(fig, path)
+    return fig
 
 
-def plot_eigenvalues(eigenvalues: np.ndarray, sweep: dict, path: str) -> None:
+def plot_eigenvalues(eigenvalues: np.ndarray, sweep: dict, path: str) -> Figure:
     """Hover eigenvalues with damping lines, the root locus of each swept
     gain (colour = log10 of the factor on its default), and max Re λ."""
     fig = Figure(figsize=(15, 8.5))
@@ -73,20 +78,21 @@ def plot_eigenvalues(eigenvalues: np.ndarray, sweep: dict, path: str) -> None:
             for c in s["stability_lost"]
         )
         factors = s["factors"]
+        # Wrapped: two crossings do not fit the subplot's width on one line.
         ax.set_title(
             f"{GAIN_LABELS[gain]} ×{factors[0]:.3g}…×{factors[-1]:.3g} of "
-            f"{s['default']:.3g} {s['units']}\nstability lost at: "
-            f"{lost or 'nowhere in range'}",
+            f"{s['default']:.3g} {s['units']}\n"
+            + textwrap.fill(f"stability lost at: {lost or 'nowhere in range'}", 48),
             fontsize=9,
         )
         ax.set_xlabel("Re λ [1/s]")
         ax.set_ylabel("Im λ [rad/s]")
         ax.grid(alpha=0.3)
         fig.colorbar(points, ax=ax, label="log10(gain / default)")
-    _save(fig, path)
+    return _save(fig, path)
 
 
-def plot_power(series: dict, v_d: float, path: str) -> None:
+def plot_power(series: dict, v_d: float, path: str) -> Figure:
     """Field-level and realised power of F, F_a, F_gc, and the speed."""
     t = series["t"]
     fig = Figure(figsize=(11, 10))
@@ -127,10 +133,10 @@ def plot_power(series: dict, v_d: float, path: str) -> None:
         ax.set_xlim(0.0, min(t[-1], t[series["cruise"]].max() + 5.0))
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    _save(fig, path)
+    return _save(fig, path)
 
 
-def plot_heading(window: dict | None, far: dict, rate: float, path: str) -> None:
+def plot_heading(window: dict | None, far: dict, rate: float, path: str) -> Figure:
     """β(t): the scenario's obstacle-free cruise window and the far-goal run,
     each against the point-mass prediction of eq 17."""
     fig = Figure(figsize=(12, 4.5))
@@ -162,10 +168,10 @@ def plot_heading(window: dict | None, far: dict, rate: float, path: str) -> None
     ax.set_ylabel("heading error β [rad]")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, which="both")
-    _save(fig, path)
+    return _save(fig, path)
 
 
-def plot_roa(sos: dict, reduced, sampled: dict, radii, directions, path: str) -> None:
+def plot_roa(sos: dict, reduced, sampled: dict, radii, directions, path: str) -> Figure:
     """The (Δx, Δv_x) plane: the SOS-certified set and ball, the reduced
     model's sampled boundary, the vehicle's sampled starts; and every
     sampled start of the vehicle by radius."""
@@ -184,16 +190,16 @@ def plot_roa(sos: dict, reduced, sampled: dict, radii, directions, path: str) ->
         ls="--",
         label=f"{{V ≤ {rho:.3g}}}: no saturation on it",
     )
-    ax.plot(
-        *(u * sos["radius"]), color="tab:purple", ls=":", label="SOS ball (roa_sos)"
-    )
+    ax.plot(*(u * sos["radius"]), color="tab:purple", ls=":", label=SOS_BALL)
     angles, boundary = reduced
-    ax.plot(
-        boundary * np.cos(angles),
-        boundary * np.sin(angles),
-        color="tab:orange",
-        label="reduced model, sampled boundary",
-    )
+    lim = 1.1 * max(scale.max(), 2.0)
+    if boundary.min() < lim:  # else off the view: the title gives it
+        ax.plot(
+            boundary * np.cos(angles),
+            boundary * np.sin(angles),
+            color="tab:orange",
+            label="reduced model, sampled boundary",
+        )
     plane = np.abs(directions[:, [1, 2, 4, 5]]).sum(axis=1) == 0
     for outcomes, r in zip(sampled["outcomes"], radii, strict=False):
         for ok, d in zip(np.asarray(outcomes)[plane], directions[plane], strict=True):
@@ -204,7 +210,6 @@ def plot_roa(sos: dict, reduced, sampled: dict, radii, directions, path: str) ->
                 color="tab:green" if ok else "tab:red",
                 s=14,
             )
-    lim = 1.1 * max(scale.max(), 2.0)
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
     ax.set_aspect("equal")
@@ -223,11 +228,16 @@ def plot_roa(sos: dict, reduced, sampled: dict, radii, directions, path: str) ->
             ax.scatter(
                 j, r, marker="o" if ok else "x", color="tab:green" if ok else "tab:red"
             )
-    ax.axhline(sos["radius"], color="tab:purple", ls=":", label="roa_sos")
+    ax.axhline(sos["radius"], color="tab:purple", ls=":", label=SOS_BALL)
     ax.axhline(
-        boundary.min(), color="tab:orange", ls="--", label="reduced model, sampled"
+        boundary.min(),
+        color="tab:orange",
+        ls="--",
+        label="reduced model, sampled boundary (nearest ray)",
     )
     ax.set_yscale("log")
+    # Head room: the legend above the highest line, not on it.
+    ax.set_ylim(top=5.0 * max(boundary.min(), np.max(radii), sos["radius"]))
     ax.set_xlabel("direction index (0–7: (Δx, Δv_x) plane)")
     ax.set_ylabel("offset radius |(Δp, Δv)|")
     ax.set_title(
@@ -235,7 +245,7 @@ def plot_roa(sos: dict, reduced, sampled: dict, radii, directions, path: str) ->
     )
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, which="both")
-    _save(fig, path)
+    return _save(fig, path)
 
 
 def write_analysis_figures(series: dict, out_dir: str) -> dict[str, str]:

@@ -8,12 +8,20 @@ method's colour, Drake's MeshcatVisualizer under the prefix of its method);
 setting the logged states, and the moving obstacles' poses, frame by frame
 and publishing records the animation. The obstacles are drawn once, the
 ground as a slab under the scene (Meshcat draws no half space), and each
-vehicle's whole path as a line of its method's colour. The page opens with
-the camera framing the whole scene.
+vehicle's whole path as a line of its method's colour; each vehicle's goal
+is a gold sphere of the goal tolerance's radius (the "reached" ball). The
+page opens with the camera framing the whole scene; its title names the
+scenario and a legend gives each method's colour and outcome. Meshcat
+serves on localhost while the page is built, silently: nothing is served
+once it is written.
 """
 
+import html
+import logging
+import re
+
 import numpy as np
-from matplotlib.colors import to_rgba
+from matplotlib.colors import to_hex, to_rgba
 from pydrake.geometry import (
     Box,
     Meshcat,
@@ -22,15 +30,17 @@ from pydrake.geometry import (
     MeshcatVisualizerParams,
     Rgba,
     SceneGraph,
+    Sphere,
 )
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import DiagramBuilder
 
+from mfi_drake.app.figures import OUTCOME_WORDS
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_text
 from mfi_drake.flight.methods import appearance
-from mfi_drake.flight.simulation import Flight
+from mfi_drake.flight.simulation import Flight, outcome
 from mfi_drake.systems.sensors import VehicleGeometry
 from mfi_drake.world.motion import obstacle_position
 from mfi_drake.world.obstacles import GROUND_RGBA, register_obstacles
@@ -40,6 +50,20 @@ FRAMES_PER_SECOND = 32.0
 FIELD_OF_VIEW_DEG = 75.0  # Meshcat's default perspective camera
 VIEW_DIRECTION = np.array([-0.5, -0.7, 0.8])  # from the scene's centre
 GROUND_THICKNESS = 0.05  # m, of the slab drawn for the ground
+GOAL_COLOUR = "gold"  # as the figures' goal star
+
+
+def offline_meshcat() -> Meshcat:
+    """A Meshcat on localhost for building a page, without its "listening for
+    connections" line: it is logged at INFO on the "drake" logger while it
+    is constructed (pydrake routes Drake's log there)."""
+    logger = logging.getLogger("drake")
+    level = logger.level
+    logger.setLevel(logging.WARNING)
+    try:
+        return Meshcat(MeshcatParams(host="localhost"))
+    finally:
+        logger.setLevel(level)
 
 
 def _rgba(method: str) -> Rgba:
@@ -132,10 +156,55 @@ def draw_ground(meshcat: Meshcat, height: float, low, high) -> None:
     )
 
 
+def draw_goals(meshcat: Meshcat, scenario: Scenario) -> None:
+    """Each vehicle's goal as a gold ball of radius goal_tolerance: "goal" the
+    scenario's own, "other_goals/<k>" those of its other vehicles."""
+    goals = [scenario.goal] + [other.goal for other in scenario.other_vehicles]
+    for k, goal in enumerate(goals):
+        path = "goal" if k == 0 else f"other_goals/{k - 1}"
+        rgba = Rgba(*to_rgba(GOAL_COLOUR, 0.8))
+        meshcat.SetObject(path, Sphere(scenario.goal_tolerance), rgba)
+        meshcat.SetTransform(path, RigidTransform(np.asarray(goal, float)))
+
+
+def legend_html(flights: list[Flight]) -> str:
+    """A box in the page's lower left: each method's colour, label and
+    outcome, and the goal's marker."""
+    rows = []
+    for flight in flights:
+        label, colour = appearance(flight.method)
+        words = OUTCOME_WORDS[outcome(flight.metrics)]
+        rows.append((to_hex(colour), f"{label} ({words})"))
+    rows.append((to_hex(GOAL_COLOUR), "goal"))
+    items = "".join(
+        f'<div><span style="display:inline-block;width:18px;height:6px;'
+        f'margin-right:6px;vertical-align:middle;background:{colour}"></span>'
+        f"{html.escape(text)}</div>"
+        for colour, text in rows
+    )
+    return (
+        '<div id="legend" style="position:fixed;left:10px;bottom:10px;'
+        "z-index:10;padding:6px 10px;background:rgba(255,255,255,0.85);"
+        'font:13px sans-serif;border-radius:4px">' + items + "</div>"
+    )
+
+
+def titled_page(page: str, title: str, legend: str) -> str:
+    """Meshcat's static page with `title` as its <title> and `legend` at the
+    top of its <body>."""
+    # Replaced by functions: a scenario's name may hold a backslash.
+    new_title = f"<title>{html.escape(title)}</title>"
+    page, titled = re.subn(r"<title>.*?</title>", lambda _: new_title, page, count=1)
+    page, bodied = re.subn(r"<body[^>]*>", lambda m: m[0] + legend, page, count=1)
+    if not (titled and bodied):  # a Meshcat page of another shape
+        raise RuntimeError("Meshcat's static page has no <title> or <body>")
+    return page
+
+
 def write_animation(scenario: Scenario, flights: list[Flight], path: str) -> None:
     """Writes `path`: a standalone HTML page animating every flight (Meshcat
     served on localhost only while it is built)."""
-    meshcat = Meshcat(MeshcatParams(host="localhost"))
+    meshcat = offline_meshcat()
     meshcat.StartRecording(
         frames_per_second=FRAMES_PER_SECOND, set_visualizations_while_recording=False
     )
@@ -147,5 +216,8 @@ def write_animation(scenario: Scenario, flights: list[Flight], path: str) -> Non
     if scenario.ground is not None:
         low[2] = min(low[2], scenario.ground.height)
         draw_ground(meshcat, scenario.ground.height, low, high)
+    draw_goals(meshcat, scenario)
     frame_scene(meshcat, low, high)
-    write_text(path, meshcat.StaticHtml())
+    labels = ", ".join(appearance(f.method)[0] for f in flights)
+    title = f"{scenario.name}: {labels} (mfi-drake)"
+    write_text(path, titled_page(meshcat.StaticHtml(), title, legend_html(flights)))

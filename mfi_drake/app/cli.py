@@ -3,7 +3,10 @@
 Every command validates its input before anything is simulated: a bad
 scenario, override, method or argument is reported as one line on stderr
 with exit status 2, and nothing is written. A user's field that fails in
-flight is reported as one line too (exit status 1).
+flight is reported as one line too (exit status 1). `run` and `compare`
+exit 1 when a flight collided or timed out (0: every flight succeeded),
+with their outputs written all the same; each command's --help (built with
+`HelpFormatter`, which shows every default) lists its exit statuses.
 """
 
 import argparse
@@ -12,6 +15,7 @@ import math
 import os
 import subprocess
 import sys
+import textwrap
 from functools import partial
 
 from mfi_drake.config.scenario import ScenarioError, read_override
@@ -95,7 +99,13 @@ def cmd_run(args) -> int:
         print(f"wrote {out}/trajectory.npz and {out}/trajectory.png")
         if args.html:
             print(f"wrote {args.html}")
-    return 0
+    return flights_status([flight])
+
+
+def flights_status(flights: list) -> int:
+    """run's and compare's exit status: 0 when every flight succeeded (reached
+    the goal without a collision), else EXIT_FLIGHT_FAILED."""
+    return 0 if all(f.metrics["success"] for f in flights) else EXIT_FLIGHT_FAILED
 
 
 def parse_methods(text: str) -> list[str]:
@@ -135,22 +145,57 @@ def cmd_compare(args) -> int:
     else:
         print(results_table(metrics))
         print(f"wrote {figure}" + (f" and {args.html}" if args.html else ""))
-    return 0
+    return flights_status(flights)
+
+
+def draw_comparison(out: str, name: str, scenario, flights: list) -> None:
+    """reproduce's figure of one scenario, drawn where it was flown."""
+    from mfi_drake.app.figures import write_comparison_figure
+
+    write_comparison_figure(scenario, flights, os.path.join(out, f"{name}.png"))
 
 
 def cmd_reproduce(args) -> int:
-    from mfi_drake.app.figures import write_comparison_figure
     from mfi_drake.files import write_text
-    from mfi_drake.studies.compare import reproduce, reproduction_report
+    from mfi_drake.studies.compare import (
+        MFI_VARIANTS,
+        PAPER_SCENARIOS,
+        claim_verdicts,
+        flown_with,
+        reproduce,
+        reproduction_report,
+        verdict,
+    )
 
+    if not 1 <= args.workers <= len(PAPER_SCENARIOS):
+        raise UsageError(
+            f"--workers = {args.workers}: must be 1 to {len(PAPER_SCENARIOS)}"
+        )
     layers = overrides(args)
-    results, flights = reproduce(args.scenarios, overrides=layers)
-    for name, flown in flights.items():
-        figure = os.path.join(args.out, f"{name}.png")
-        write_comparison_figure(flown[0].scenario, flown, figure)
-    report = reproduction_report(results, [where for where, _ in layers])
-    write_text(os.path.join(args.out, "results.md"), report)
-    print(f"wrote {args.out}/results.md and one figure per scenario")
+    layered = [where for where, _ in layers]
+    print(
+        f"flying {', '.join(PAPER_SCENARIOS)} from {args.scenarios}/ with every "
+        f"method, {flown_with(layered)}",
+        flush=True,
+    )
+    results = reproduce(
+        args.scenarios,
+        partial(print, flush=True),
+        layers,
+        args.workers,
+        partial(draw_comparison, args.out),
+    )
+    for mfi in MFI_VARIANTS:
+        print(f"the paper's claims, judged with {METHODS[mfi].label} as MFI:")
+        for i, (statement, held, _) in enumerate(claim_verdicts(results, mfi), 1):
+            print(f"  {i}. {statement}: {verdict(held)}")
+    write_text(
+        os.path.join(args.out, "results.md"), reproduction_report(results, layered)
+    )
+    print(
+        f"wrote {args.out}/results.md (the numbers behind each verdict) and one "
+        "figure per scenario"
+    )
     return 0
 
 
@@ -252,15 +297,28 @@ def cmd_sweep(args) -> int:
     return 1 if run.lost else 0
 
 
-def _check_sweep_numbers(args) -> None:
-    for name, value, least in (("--n", args.n, 1), ("--workers", args.workers, 1)):
-        if value < least:
-            raise UsageError(f"{name} = {value}: must be ≥ {least}")
-    if args.seed < 0:
-        raise UsageError(f"--seed = {args.seed}: must be ≥ 0")
-    for d in args.density:
+def _at_least(name: str, value: int | None, least: int) -> None:
+    if value is not None and value < least:
+        raise UsageError(f"{name} = {value}: must be ≥ {least}")
+
+
+def _densities(name: str, values: list[float]) -> None:
+    for d in values:
         if not (math.isfinite(d) and d >= 0.0):
-            raise UsageError(f"--density = {d}: must be a finite number ≥ 0")
+            raise UsageError(f"{name} = {d}: must be a finite number ≥ 0")
+
+
+def _check_sweep_numbers(args) -> None:
+    _at_least("--n", args.n, 1)
+    _at_least("--workers", args.workers, 1)
+    _at_least("--seed", args.seed, 0)
+    _densities("--density", args.density)
+
+
+def _check_held_out_numbers(args) -> None:
+    _at_least("--held-out-seed", args.held_out_seed, 0)
+    _at_least("--held-out-n", args.held_out_n, 1)
+    _densities("--held-out-density", args.held_out_density)
 
 
 def _check_motion_numbers(args) -> None:
@@ -290,6 +348,7 @@ def cmd_tune(args) -> int:
     methods = parse_methods(args.methods)
     _check_sweep_numbers(args)
     _check_motion_numbers(args)
+    _check_held_out_numbers(args)
     config = TuneConfig(
         methods=methods,
         candidates=args.candidates,
@@ -308,6 +367,12 @@ def cmd_tune(args) -> int:
         config.check()
     except TuneError as e:
         raise UsageError(str(e)) from None
+    if args.held_out_seed is None:
+        print(
+            "mfi-drake: warning: no --held-out-seed: the tuned gains will not be "
+            "flown on held-out fields",
+            file=sys.stderr,
+        )
     try:
         with dask_client(args.workers, args.scheduler, methods) as client:
             tune(config, client)
@@ -352,6 +417,51 @@ def cmd_analyze(args) -> int:
     return 0
 
 
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Each option's help ends with its default, when it has one to show (an
+    option whose default is "absent" says in its help what absent means)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        absent = action.default in (None, argparse.SUPPRESS) or isinstance(
+            action.default, bool
+        )
+        if action.option_strings and not absent and "%(default)" not in text:
+            text += " (default: %(default)s)"
+        return text
+
+
+def exit_statuses(done: str, failed: str = "") -> str:
+    """The epilog of a command's help: what its exit statuses 0, 1 and 2 mean."""
+    rows = [("0", done), ("1", failed), ("2", BAD_INPUT)]
+    return "exit status:\n" + "\n".join(
+        textwrap.fill(text, 78, initial_indent=f"  {code}  ", subsequent_indent=" " * 5)
+        for code, text in rows
+        if text
+    )
+
+
+BAD_INPUT = (
+    "bad input (scenario, override, method or argument), reported as one line "
+    "naming it before anything is simulated or written"
+)
+USER_FIELD_FAILED = "a user's field (MODULE:NAME) raised or returned a bad force"
+
+
+def add_parser(sub, name: str, help: str, exit_status: str, **kwargs):
+    """A subcommand whose help shows every default and its exit statuses."""
+    return sub.add_parser(
+        name,
+        help=help,
+        description=textwrap.fill(
+            kwargs.pop("description", help[0].upper() + help[1:] + "."), 78
+        ),
+        epilog=exit_status,
+        formatter_class=HelpFormatter,
+        **kwargs,
+    )
+
+
 def add_motion(parser: argparse.ArgumentParser, what: str) -> None:
     """--moving and --obstacle-speed (`generator.set_in_motion`)."""
     parser.add_argument(
@@ -359,14 +469,15 @@ def add_motion(parser: argparse.ArgumentParser, what: str) -> None:
         type=float,
         default=0.0,
         metavar="SHARE",
-        help=f"{what}, circling at --obstacle-speed (default 0: none; docs/dynamic.md)",
+        help=f"{what}, in [0, 1], circling at --obstacle-speed (0: none; "
+        "docs/dynamic.md)",
     )
     parser.add_argument(
         "--obstacle-speed",
         type=float,
         default=0.0,
         metavar="M/S",
-        help="speed of the moving obstacles",
+        help="speed of the moving obstacles, ≥ 0; > 0 with --moving",
     )
 
 
@@ -378,7 +489,8 @@ def add_overrides(parser: argparse.ArgumentParser) -> None:
         action="append",
         type=lambda text: ("set", text),
         metavar="YAML",
-        help="scenario fields layered on top, e.g. 'faults: {sensor_noise_std: 0.05}'",
+        help="scenario fields layered on top, e.g. 'faults: {sensor_noise_std: "
+        "0.05}'; repeatable, applied in order with --override (default: none)",
     )
     parser.add_argument(
         "--override",
@@ -386,152 +498,283 @@ def add_overrides(parser: argparse.ArgumentParser) -> None:
         action="append",
         type=lambda path: ("file", path),
         metavar="FILE",
-        help="a YAML file of scenario fields layered on top (e.g. from tune)",
+        help="a YAML file of scenario fields layered on top, e.g. tune's "
+        "tuned.yaml; repeatable (default: none, the scenario's own gains)",
+    )
+
+
+def add_flight_outputs(parser: argparse.ArgumentParser, json_help: str) -> None:
+    """--out, --json and --html of run and compare."""
+    parser.add_argument("--out", help="output directory (default: out/<scenario name>)")
+    parser.add_argument("--json", action="store_true", help=json_help)
+    parser.add_argument(
+        "--html",
+        metavar="FILE.html",
+        help="also write a standalone Meshcat animation to this .html file "
+        "(default: none)",
+    )
+
+
+def add_field_count(parser: argparse.ArgumentParser, n: int, what: str) -> None:
+    """--n, checked by `_check_sweep_numbers`."""
+    parser.add_argument(
+        "--n", type=int, default=n, help=f"{what} fields per density, ≥ 1"
+    )
+
+
+def add_workers(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="local Dask worker processes, ≥ 1 (default: %(default)s, one per core)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="address of a running Dask scheduler, e.g. tcp://host:8786, "
+        "used instead of local workers (default: none)",
     )
 
 
 def make_parser() -> argparse.ArgumentParser:
+    from mfi_drake.studies.compare import PAPER_SCENARIOS
+    from mfi_drake.studies.tune import JITTER_AXES, MIN_CANDIDATES
+    from mfi_drake.world.generator import DEFAULT_DENSITY
+
     parser = argparse.ArgumentParser(
         prog="mfi-drake",
         description="Magnetic-field-inspired quadcopter navigation on Drake.",
+        epilog="Each command's --help lists its options with their defaults and "
+        f"what its exit statuses mean; {EXIT_BAD_INPUT} is always bad input.",
+        formatter_class=HelpFormatter,
     )
     sub = parser.add_subparsers(dest="command", required=True)
+    methods = ", ".join(METHODS)
 
-    run = sub.add_parser("run", help="fly a scenario and write its log and figure")
+    run = add_parser(
+        sub,
+        "run",
+        "fly a scenario and write its log and figure",
+        exit_statuses(
+            "the flight succeeded: it reached the goal without a collision",
+            "the flight collided or timed out (the log and figure are written "
+            f"all the same), or {USER_FIELD_FAILED}",
+        ),
+    )
     run.add_argument("scenario", help="scenario YAML file")
     add_overrides(run)
     run.add_argument(
         "--method",
         default="mfi",
-        help=f"one of {', '.join(METHODS)}, or MODULE:NAME of your own field "
-        "function (default mfi)",
+        help=f"one of {methods}, or MODULE:NAME of your own field function",
     )
-    run.add_argument("--out", help="output directory (default out/<scenario name>)")
-    run.add_argument("--json", action="store_true", help="print one JSON object")
-    run.add_argument("--html", help="also write a Meshcat animation to this .html")
+    add_flight_outputs(run, "print the flight's metrics as one JSON object")
     run.set_defaults(func=cmd_run)
 
-    comp = sub.add_parser("compare", help="fly a scenario with several methods")
+    comp = add_parser(
+        sub,
+        "compare",
+        "fly a scenario with several methods",
+        exit_statuses(
+            "every method's flight succeeded",
+            "a method's flight collided or timed out (every method is flown "
+            f"and written all the same), or {USER_FIELD_FAILED}",
+        ),
+    )
     comp.add_argument("scenario", help="scenario YAML file")
     add_overrides(comp)
     comp.add_argument(
         "--methods",
         default=",".join(METHODS),
-        help=f"comma-separated names or MODULE:NAME (default {','.join(METHODS)})",
+        help="distinct names or MODULE:NAME, separated by commas",
     )
-    comp.add_argument("--out", help="output directory (default out/<scenario name>)")
-    comp.add_argument("--json", action="store_true", help="print one JSON object")
-    comp.add_argument("--html", help="also write a Meshcat animation to this .html")
+    add_flight_outputs(comp, "print every method's metrics as one JSON object")
     comp.set_defaults(func=cmd_compare)
 
-    rep = sub.add_parser(
-        "reproduce", help="the paper's §VI-A comparison: figures and results.md"
+    rep = add_parser(
+        sub,
+        "reproduce",
+        "the paper's §VI-A comparison: figures and results.md",
+        description="Flies the paper's four scenarios (planar_wall, "
+        "three_spheres, tree, sharp_corner) with every method and judges the "
+        "paper's four claims, with the scenarios' own (shipped) gains unless "
+        "--override or --set layers others on, e.g. tune's tuned.yaml.",
+        exit_status=exit_statuses(
+            "results.md and the figures are written, whatever the flights' "
+            "outcomes and whether or not each claim held (the verdicts are the "
+            "output)"
+        ),
     )
     rep.add_argument(
-        "--scenarios", default="scenarios", help="directory of the paper's scenarios"
+        "--scenarios",
+        default="scenarios",
+        help="directory holding the paper's scenarios (planar_wall.yaml, ...)",
     )
     rep.add_argument("--out", default="out/reproduce", help="output directory")
     add_overrides(rep)
+    rep.add_argument(
+        "--workers",
+        type=int,
+        default=min(len(PAPER_SCENARIOS), os.cpu_count() or 1),
+        help="processes flying the scenarios at once, 1 to "
+        f"{len(PAPER_SCENARIOS)} (default: %(default)s, one per core, at most "
+        f"{len(PAPER_SCENARIOS)})",
+    )
     rep.set_defaults(func=cmd_reproduce)
 
-    sweep = sub.add_parser(
-        "sweep", help="Monte Carlo benchmark on random obstacle fields (Dask)"
+    sweep = add_parser(
+        sub,
+        "sweep",
+        "Monte Carlo benchmark on random obstacle fields (Dask)",
+        exit_status=exit_statuses(
+            "every flight was flown, whatever its outcome (the rates are the output)",
+            "a flight could not be run (rerun the same command to fly it)",
+        ),
     )
     add_overrides(sweep)
-    sweep.add_argument("--n", type=int, default=30, help="fields per density")
-    sweep.add_argument("--seed", type=int, default=0, help="seed of the fields")
+    add_field_count(sweep, 30, "random")
+    sweep.add_argument(
+        "--seed", type=int, default=0, help="seed of the random fields, ≥ 0"
+    )
     sweep.add_argument(
         "--methods",
-        help="comma-separated names or MODULE:NAME, e.g. mfi,apf,gf "
-        "(default: every method of the registry)",
+        help="distinct names or MODULE:NAME, separated by commas, e.g. mfi,apf,gf "
+        f"(default: every method of the registry: {','.join(METHODS)})",
     )
-    from mfi_drake.world.generator import DEFAULT_DENSITY
-
     sweep.add_argument(
         "--density",
         type=float,
         nargs="+",
         default=[DEFAULT_DENSITY],
-        help="obstacles per m³ of the 8×5×5 m box around the start–goal line "
-        f"(default {DEFAULT_DENSITY:g}); several values sweep them all",
+        help="obstacles per m³ of the 8×5×5 m box around the start–goal line, "
+        "each ≥ 0; several values sweep them all",
     )
-    sweep.add_argument("--sensor", choices=["sphere", "depth"], default="sphere")
+    sweep.add_argument(
+        "--sensor",
+        choices=["sphere", "depth"],
+        default="sphere",
+        help="the sensor every field is flown with: the paper's sensing sphere "
+        "or the depth camera (docs/depth_camera.md)",
+    )
     add_motion(sweep, "share of each field's obstacles that move")
-    sweep.add_argument(
-        "--workers",
-        type=int,
-        default=os.cpu_count() or 1,
-        help="local worker processes (default: one per core)",
-    )
-    sweep.add_argument(
-        "--scheduler", help="address of a running Dask scheduler (tcp://host:8786)"
-    )
+    add_workers(sweep)
     sweep.add_argument(
         "--faults",
+        metavar="YAML",
         help="a scenario `faults:` block flown on every field, as YAML, e.g. "
         "'{sensor_noise_std: 0.05, dropout_prob: 0.1}' (each field's seed is "
-        "offset by its name); results are keyed by it, so several can share --out",
+        "offset by its name); results are keyed by it, so several can share "
+        "--out (default: none)",
     )
     sweep.add_argument("--out", default="out/sweep", help="output directory")
-    sweep.add_argument("--json", action="store_true", help="print one JSON object")
+    sweep.add_argument(
+        "--json", action="store_true", help="print the summary as one JSON object"
+    )
     sweep.set_defaults(func=cmd_sweep)
 
-    diagram = sub.add_parser("diagram", help="draw the built diagram as SVG (Graphviz)")
+    diagram = add_parser(
+        sub,
+        "diagram",
+        "draw the built diagram as SVG (Graphviz)",
+        exit_statuses("the .svg is written"),
+    )
     diagram.add_argument("scenario", help="scenario YAML file")
     add_overrides(diagram)
     diagram.add_argument(
-        "--method", default="mfi", help="method name or MODULE:NAME (default mfi)"
+        "--method",
+        default="mfi",
+        help=f"one of {methods}, or MODULE:NAME of your own field function",
     )
-    diagram.add_argument("--out", required=True, help="output .svg file")
+    diagram.add_argument("--out", required=True, help="output .svg file (required)")
     diagram.set_defaults(func=cmd_diagram)
 
-    tune = sub.add_parser(
+    tune = add_parser(
+        sub,
         "tune",
-        help="one tuning protocol for every method, then held-out fields (Dask)",
+        "one tuning protocol for every method, then held-out fields (Dask)",
+        exit_status=exit_statuses(
+            "tuned.yaml and, with --held-out-seed, the held-out sweep are written",
+            "a held-out flight could not be run (rerun the same command to fly it)",
+        ),
     )
     tune.add_argument(
         "--methods",
         default=",".join(METHODS),
-        help="comma-separated names or MODULE:NAME (default: every method)",
+        help="distinct names or MODULE:NAME, separated by commas",
     )
     tune.add_argument(
-        "--candidates", type=int, default=24, help="gain sets per method (budget)"
+        "--candidates",
+        type=int,
+        default=24,
+        help=f"gain sets tried per method, ≥ {MIN_CANDIDATES}: the current gains, "
+        "a Latin hypercube of two thirds of the rest, then two rounds of "
+        "refinement; the budget is candidates × training fields flights",
     )
-    tune.add_argument("--seed", type=int, default=100, help="training fields' seed")
-    tune.add_argument("--n", type=int, default=10, help="training fields per density")
-    tune.add_argument("--density", type=float, nargs="+", default=[0.1, 0.2])
     tune.add_argument(
-        "--paper-scenarios", help="a directory whose paper scenarios join training"
+        "--seed", type=int, default=100, help="training fields' seed, ≥ 0"
+    )
+    add_field_count(tune, 10, "random training")
+    tune.add_argument(
+        "--density",
+        type=float,
+        nargs="+",
+        default=[0.1, 0.2],
+        help="training densities, obstacles per m³, each ≥ 0",
     )
     tune.add_argument(
-        "--walls", type=int, default=0, help="wall fields that join training"
+        "--paper-scenarios",
+        metavar="DIR",
+        help="a directory whose paper scenarios join training (default: none)",
+    )
+    tune.add_argument(
+        "--walls", type=int, default=0, help="wall fields that join training, ≥ 0"
     )
     add_motion(tune, "each random training field also flown with this share moving")
     tune.add_argument(
         "--jitter",
         type=int,
         default=1,
-        help="fly each random training field this many times, started 1 mm apart",
+        help="fly each random training field this many times, started 1 mm "
+        f"apart, 1 (once) to {1 + len(JITTER_AXES)}",
     )
     tune.add_argument(
-        "--held-out-seed", type=int, help="seed of the held-out fields (≠ --seed)"
+        "--held-out-seed",
+        type=int,
+        help="seed of the held-out fields the winners are then flown on, ≥ 0 and "
+        "≠ --seed (default: none, no held-out phase, with a warning)",
     )
-    tune.add_argument("--held-out-n", type=int, default=200)
     tune.add_argument(
-        "--held-out-density", type=float, nargs="+", default=[0.05, 0.1, 0.2]
+        "--held-out-n",
+        type=int,
+        default=200,
+        help="held-out fields per density, ≥ 1",
     )
-    tune.add_argument("--workers", type=int, default=os.cpu_count() or 1)
-    tune.add_argument("--scheduler", help="address of a running Dask scheduler")
+    tune.add_argument(
+        "--held-out-density",
+        type=float,
+        nargs="+",
+        default=[0.05, 0.1, 0.2],
+        help="held-out densities, obstacles per m³, each ≥ 0",
+    )
+    add_workers(tune)
     tune.add_argument("--out", default="out/tune", help="output directory")
     tune.set_defaults(func=cmd_tune)
 
-    analyze = sub.add_parser(
-        "analyze", help="linearisation, stability and region of attraction (MFI)"
+    analyze = add_parser(
+        sub,
+        "analyze",
+        "linearisation, stability and region of attraction (MFI)",
+        exit_statuses("analysis.json and the figures are written"),
     )
     analyze.add_argument("scenario", help="scenario YAML file")
     add_overrides(analyze)
-    analyze.add_argument("--out", help="output directory (default out/<name>/analysis)")
-    analyze.add_argument("--json", action="store_true", help="print one JSON object")
+    analyze.add_argument(
+        "--out", help="output directory (default: out/<scenario name>/analysis)"
+    )
+    analyze.add_argument(
+        "--json", action="store_true", help="print the report as one JSON object"
+    )
     analyze.set_defaults(func=cmd_analyze)
     return parser
 

@@ -1,9 +1,10 @@
 """The figures: a scenario's flights (the paper's Figs 5–9, 11: the 3-D path
-with the obstacles, the path length and the position error over time) and
-the sweep's success rates and path ratios. A moving obstacle is drawn where
-it was at the start (faint) and at the end, with its centre's path dashed;
-the other vehicles' paths are dashed in their method's colour; a ground is a
-green plane under the scene.
+with the obstacles, its top view, the path length and the position error
+over time; each method in its own colour, line style and markers) and the
+sweep's success rates and path ratios. A moving obstacle is drawn where it
+was at the start (faint) and at the end, with its centre's path dashed; the
+other vehicles' paths are thinner, in their method's style; a ground is a
+green plane under the 3-D view.
 
 Figures are `matplotlib.figure.Figure` objects, never pyplot's: drawing
 here leaves the user's matplotlib backend alone. `write_figure` is the one
@@ -11,6 +12,7 @@ place a figure reaches the disk, atomically.
 """
 
 import numpy as np
+from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
@@ -21,6 +23,7 @@ from mfi_drake.flight.methods import appearance
 from mfi_drake.flight.simulation import outcome as flight_outcome
 from mfi_drake.world.motion import obstacle_position
 from mfi_drake.world.obstacles import obstacle_triangles
+from mfi_drake.world.shapes import bounding_radius
 
 OUTCOME_WORDS = {"success": "reached", "collision": "collided", "timeout": "failed"}
 
@@ -53,6 +56,27 @@ def draw_obstacles(ax, scenario: Scenario, times=(0.0,)) -> None:
             ax.plot(*centres.T, color="grey", ls="--", lw=0.8)
 
 
+def draw_footprints(ax, scenario: Scenario, times=(0.0,)) -> None:
+    """The top view of `draw_obstacles`: each obstacle's x–y footprint (its
+    triangles projected, one flat colour so that overlaps do not darken)."""
+    for obstacle in scenario.obstacles:
+        moving = moves(obstacle.motion)
+        for t, grey in [(times[0], 0.9), (times[-1], 0.78)] if moving else [(0, 0.78)]:
+            colour = (grey, grey, grey + 0.03)
+            ax.add_collection(
+                PolyCollection(
+                    obstacle_triangles(scenario, obstacle, t)[:, :, :2],
+                    facecolor=colour,
+                    edgecolor=colour,
+                    linewidth=0.5,
+                    zorder=0,
+                )
+            )
+        if moving:
+            centres = obstacle_position(obstacle, np.asarray(times))
+            ax.plot(*centres[:, :2].T, color="grey", ls="--", lw=0.8)
+
+
 def draw_ground(ax, height: float) -> None:
     """A plane at z = height over the axes' x and y limits."""
     x, y = np.meshgrid(ax.get_xlim(), ax.get_ylim())
@@ -60,79 +84,125 @@ def draw_ground(ax, height: float) -> None:
 
 
 def _equal_box(ax, points: np.ndarray) -> None:
+    """Equal, square limits holding `points` (N, 2) or (N, 3) on `ax`."""
     low, high = points.min(axis=0), points.max(axis=0)
-    centre, half = (low + high) / 2, max((high - low).max() / 2, 0.5)
+    centre, half = (low + high) / 2, max(0.53 * (high - low).max(), 0.5)
     ax.set_xlim(centre[0] - half, centre[0] + half)
     ax.set_ylim(centre[1] - half, centre[1] + half)
-    ax.set_zlim(centre[2] - half, centre[2] + half)
-    ax.set_box_aspect((1, 1, 1))
+    if points.shape[1] == 3:
+        ax.set_zlim(centre[2] - half, centre[2] + half)
+        ax.set_box_aspect((1, 1, 1))
+    else:
+        ax.set_aspect("equal")
+
+
+# Where paths overlap (APF's under GF's at the wall), each method keeps its
+# own line style and marker, its markers staggered along the path from the
+# other methods'.
+LINE_STYLES = ("-", "--", "-.", ":")
+MARKERS = ("o", "s", "^", "D", "v", "P")
+MARKER_SPACING = 1.0  # m of path between one method's markers
+
+
+def method_style(i: int, count: int, path: np.ndarray) -> dict:
+    """Line style, marker and marked samples of the i-th of `count` methods,
+    flown along `path` (N, 3)."""
+    steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(steps)])
+    marks = np.arange(MARKER_SPACING * (i + 0.5) / count, arc[-1], MARKER_SPACING)
+    style = {"ls": LINE_STYLES[i % len(LINE_STYLES)]}
+    if count > 1:  # one method alone needs no markers
+        style["marker"] = MARKERS[i % len(MARKERS)]
+        style["markersize"] = 4.5
+        style["markevery"] = np.unique(np.searchsorted(arc, marks)).tolist()
+    return style
 
 
 def plot_flights(scenario: Scenario, flights: list, path: str, title: str = "") -> None:
     """Writes the figure of one scenario flown by one or more methods."""
-    fig = Figure(figsize=(13, 6))
-    ax3d = fig.add_subplot(1, 2, 1, projection="3d")
-    ax_len = fig.add_subplot(2, 2, 2)
-    ax_err = fig.add_subplot(2, 2, 4)
+    write_figure(flights_figure(scenario, flights, title), path)
+
+
+def flights_figure(scenario: Scenario, flights: list, title: str = "") -> Figure:
+    """The figure of one scenario flown by one or more methods: the 3-D view,
+    the top (x–y) view, path length and position error."""
+    fig = Figure(figsize=(18, 6.5))
+    grid = fig.add_gridspec(2, 3, width_ratios=(1.15, 1.0, 1.1))
+    ax3d = fig.add_subplot(grid[:, 0], projection="3d")
+    ax_top = fig.add_subplot(grid[:, 1])
+    ax_len = fig.add_subplot(grid[0, 2])
+    ax_err = fig.add_subplot(grid[1, 2])
     times = flights[0].times if flights else np.zeros(1)
     draw_obstacles(ax3d, scenario, times)
+    draw_footprints(ax_top, scenario, times)
     start, goal = np.asarray(scenario.start), np.asarray(scenario.goal)
     corners = [start, goal]
-    for obstacle in scenario.obstacles:
-        corners.append(obstacle_position(obstacle, times))
-    for flight in flights:
+    for obstacle in scenario.obstacles:  # wherever it went, all of it
+        reach = bounding_radius(scenario, obstacle.shape)
+        centres = np.atleast_2d(obstacle_position(obstacle, times))
+        corners += [centres - reach, centres + reach]
+    for i, flight in enumerate(flights):
         label, colour = appearance(flight.method)
         outcome = OUTCOME_WORDS[flight_outcome(flight.metrics)]
         for k, flown in enumerate([flight, *flight.others]):
-            first = k == 0  # the scenario's own vehicle; the others dashed
-            style = {"color": colour, "ls": "-" if first else "--"}
+            first = k == 0  # the scenario's own vehicle; the others thinner
             p = flown.positions
+            style = {"color": colour, **method_style(i, len(flights), p)}
+            style["lw"] = 1.8 if first else 1.0
             corners.append(p)
-            ax3d.plot(
-                p[:, 0],
-                p[:, 1],
-                p[:, 2],
-                lw=1.8 if first else 1.0,
-                label=f"{label} ({outcome})" if first else None,
-                **style,
-            )
+            name = f"{label} ({outcome})" if first else None
+            ax3d.plot(p[:, 0], p[:, 1], p[:, 2], label=name, **style)
+            ax_top.plot(p[:, 0], p[:, 1], **style)
             steps = np.linalg.norm(np.diff(p, axis=0), axis=1)
             length = np.concatenate([[0.0], np.cumsum(steps)])
-            ax_len.plot(flown.times, length, label=label if first else None, **style)
+            ax_len.plot(flown.times, length, **style)
             error = np.linalg.norm(p - np.asarray(flown.scenario.goal), axis=1)
-            ax_err.plot(flown.times, error, label=label if first else None, **style)
+            ax_err.plot(flown.times, error, **style)
     ends = [(start, goal)] + [(o.start, o.goal) for o in scenario.other_vehicles]
     for k, (a, b) in enumerate(ends):
-        ax3d.scatter(
-            *a, color="black", marker="o", s=40, label="start" if k == 0 else None
-        )
-        ax3d.scatter(
-            *b,
-            color="gold",
-            edgecolor="black",
-            marker="*",
-            s=160,
-            label="goal" if k == 0 else None,
-        )
-    _equal_box(ax3d, np.vstack([np.atleast_2d(c) for c in corners]))
+        for ax, dims in ((ax3d, slice(0, 3)), (ax_top, slice(0, 2))):
+            ax.scatter(
+                *a[dims],
+                color="black",
+                marker="o",
+                s=40,
+                zorder=5,
+                label="start" if k == 0 and ax is ax3d else None,
+            )
+            ax.scatter(
+                *np.asarray(b)[dims],
+                color="gold",
+                edgecolor="black",
+                marker="*",
+                s=160,
+                zorder=5,
+                label="goal" if k == 0 and ax is ax3d else None,
+            )
+    points = np.vstack([np.atleast_2d(c) for c in corners])
+    _equal_box(ax3d, points)
     if scenario.ground is not None:
         draw_ground(ax3d, scenario.ground.height)
     ax3d.set_xlabel("x [m]")
     ax3d.set_ylabel("y [m]")
     ax3d.set_zlabel("z [m]")
-    ax3d.legend(loc="upper left", fontsize=8)
     ax3d.set_title("centre-of-mass trajectory")
+    _equal_box(ax_top, points[:, :2])
+    ax_top.set_xlabel("x [m]")
+    ax_top.set_ylabel("y [m]")
+    ax_top.set_title("top view")
+    ax_top.grid(alpha=0.3)
     ax_len.set_ylabel("path length [m]")
     ax_len.grid(alpha=0.3)
-    ax_len.legend(fontsize=8)
     ax_err.set_ylabel("position error |p − p_g| [m]")
     ax_err.set_xlabel("time [s]")
     ax_err.axhline(scenario.goal_tolerance, color="grey", ls=":", lw=1)
     ax_err.grid(alpha=0.3)
     ax_len.set_xlabel("time [s]")
+    handles, labels = ax3d.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=9)
     fig.suptitle(title or f"{scenario.name} ({scenario.vehicle})")
-    fig.tight_layout()
-    write_figure(fig, path)
+    fig.tight_layout(rect=(0, 0.06, 1, 0.95))
+    return fig
 
 
 def write_comparison_figure(scenario: Scenario, flights: list, path: str) -> None:

@@ -45,7 +45,7 @@ class OtherVehicle:
     vehicle preset and sensor as the scenario's own."""
 
     start: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.5])  # m
-    goal: list[float] = field(default_factory=lambda: [5.0, 0.0, 1.5])  # m
+    goal: list[float] = field(default_factory=list)  # m; required: no default
 
 
 @dataclass

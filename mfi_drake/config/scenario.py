@@ -195,7 +195,7 @@ def default_simulator_config() -> SimulatorConfig:
 class Scenario:
     name: str = "unnamed"
     start: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.5])  # m
-    goal: list[float] = field(default_factory=lambda: [5.0, 0.0, 1.5])  # m
+    goal: list[float] = field(default_factory=list)  # m; required: no default
     duration: float = 30.0  # s of simulated time
     vehicle: str = "drake_default"
     sensor: Sensor = field(default_factory=SphereSensor)
@@ -234,6 +234,16 @@ def _check_vector(where, name, value, positive=False):
             fail(where, name, value, "must hold finite numbers")
         if positive and x <= 0:
             fail(where, name, value, "must be > 0")
+
+
+def _check_goal(where: str, name: str, goal: list[float]) -> None:
+    """A goal has no default: an empty one was not given."""
+    if goal == []:
+        raise ScenarioError(
+            f"{where}: {name}: missing; every vehicle needs the point [x, y, z] "
+            "(m) it flies to"
+        )
+    _check_vector(where, name, goal)
 
 
 def _check_positive(where, name, value):
@@ -336,7 +346,7 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
             fail(where, "ground.height", height, "must be a finite number")
     for i, other in enumerate(scenario.other_vehicles):
         _check_vector(where, f"other_vehicles[{i}].start", other.start)
-        _check_vector(where, f"other_vehicles[{i}].goal", other.goal)
+        _check_goal(where, f"other_vehicles[{i}].goal", other.goal)
     if scenario.other_vehicles and scenario.faults != Faults():
         fail(
             where, "other_vehicles", scenario.other_vehicles, "are flown without faults"
@@ -355,7 +365,7 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     if not scenario.name:
         fail(where, "name", scenario.name, "must not be empty")
     _check_vector(where, "start", scenario.start)
-    _check_vector(where, "goal", scenario.goal)
+    _check_goal(where, "goal", scenario.goal)
     _check_positive(where, "duration", scenario.duration)
     _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
     if scenario.vehicle not in VEHICLES:

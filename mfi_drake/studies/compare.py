@@ -2,8 +2,10 @@
 scenario, and its reproduction on the paper's four environments with a
 verdict on each of the paper's claims."""
 
+import multiprocessing
 import os
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.flight.methods import METHODS, Method, appearance
@@ -126,37 +128,90 @@ CLAIMS: list[tuple[str, Callable[..., tuple[bool, str]]]] = [
 ]
 
 
+def claim_verdicts(results: Results, mfi: str = "mfi") -> list[tuple[str, bool, str]]:
+    """(statement, held, the numbers why) of each paper claim, with `mfi` (a
+    method name) as the paper's MFI."""
+    return [(statement, *claim(results, mfi)) for statement, claim in CLAIMS]
+
+
 def claim_lines(results: Results, mfi: str = "mfi") -> list[str]:
-    """One Markdown line per paper claim, with `mfi` (a method name) as the
-    paper's MFI: held or not, and the numbers why."""
-    lines = []
-    for i, (statement, claim) in enumerate(CLAIMS, 1):
-        held, why = claim(results, mfi)
-        verdict = "held" if held else "did not hold"
-        lines.append(f"{i}. {statement}: **{verdict}**. {why}.")
-    return lines
+    """One Markdown line per paper claim, with `mfi` as the paper's MFI: held
+    or not, and the numbers why."""
+    return [
+        f"{i}. {statement}: **{verdict(held)}**. {why}."
+        for i, (statement, held, why) in enumerate(claim_verdicts(results, mfi), 1)
+    ]
+
+
+def verdict(held: bool) -> str:
+    return "held" if held else "did not hold"
+
+
+# Called in the process that flew a scenario with (name, scenario, flights),
+# e.g. to draw its figure: flights do not travel between processes.
+Draw = Callable[[str, Scenario, list[Flight]], None]
+
+
+def fly_paper_scenario(
+    path: str, overrides: list[tuple[str, str]], draw: Draw | None
+) -> dict[str, dict]:
+    """Flies the scenario file `path` with every method of the registry;
+    returns the metrics by method."""
+    scenario = load_scenario(path, overrides)
+    flights = compare(scenario, list(METHODS))
+    if draw is not None:
+        draw(os.path.splitext(os.path.basename(path))[0], scenario, flights)
+    return {f.method: f.metrics for f in flights}
 
 
 def reproduce(
     scenario_dir: str,
     progress: Callable[[str], None] = print,
     overrides: list[tuple[str, str]] = (),
-) -> tuple[Results, dict[str, list[Flight]]]:
+    workers: int = 1,
+    draw: Draw | None = None,
+) -> Results:
     """Flies every paper scenario, with `overrides` layered on it (e.g. tuned
-    gains), with every method of the registry; returns the metrics by
-    scenario and method, and the flights by scenario."""
-    results: Results = {}
-    flights: dict[str, list[Flight]] = {}
-    for name in PAPER_SCENARIOS:
-        path = os.path.join(scenario_dir, f"{name}.yaml")
-        scenario = load_scenario(path, overrides)
-        flights[name] = compare(scenario, list(METHODS))
-        results[name] = {f.method: f.metrics for f in flights[name]}
+    gains), with every method of the registry, the scenarios in `workers`
+    processes at once (1: in this one); returns the metrics by scenario and
+    method. Every scenario is loaded here first, so that bad input is
+    reported before anything flies."""
+    paths = {
+        name: os.path.join(scenario_dir, f"{name}.yaml") for name in PAPER_SCENARIOS
+    }
+    for path in paths.values():
+        load_scenario(path, overrides)
+
+    def report(name: str, metrics: dict[str, dict]) -> None:
         progress(
-            f"{name}: "
-            + ", ".join(f"{f.method} {outcome(f.metrics)}" for f in flights[name])
+            f"{name}: " + ", ".join(f"{m} {outcome(x)}" for m, x in metrics.items())
         )
-    return results, flights
+
+    results: Results = {}
+    if workers == 1:
+        for name, path in paths.items():
+            results[name] = fly_paper_scenario(path, overrides, draw)
+            report(name, results[name])
+    else:
+        # Spawned, not forked: a fresh interpreter per worker, whatever
+        # threads this process has started.
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(workers, mp_context=context) as pool:
+            futures = {
+                pool.submit(fly_paper_scenario, path, list(overrides), draw): name
+                for name, path in paths.items()
+            }
+            for future in as_completed(futures):
+                results[futures[future]] = future.result()
+                report(futures[future], results[futures[future]])
+    return {name: results[name] for name in PAPER_SCENARIOS}
+
+
+def flown_with(layered: list[str]) -> str:
+    """Which gains the scenarios were flown with, for reproduce's output."""
+    if layered:
+        return f"with {', '.join(layered)} layered on the scenarios"
+    return "with the shipped gains (the scenarios' own; no --override or --set)"
 
 
 def reproduction_report(results: Results, layered: list[str] = ()) -> str:
@@ -170,9 +225,8 @@ def reproduction_report(results: Results, layered: list[str] = ()) -> str:
                 "# The paper's §VI-A comparison, reproduced",
                 "Written by `mfi-drake reproduce`: each scenario flown by "
                 + ", ".join(m.label for m in METHODS.values())
-                + " on the same vehicle, sensor and attitude chain"
-                + (f", with {', '.join(layered)} layered on" if layered else "")
-                + ".",
+                + " on the same vehicle, sensor and attitude chain, "
+                + f"{flown_with(layered)}.",
                 results_table(metrics),
                 *(
                     part

@@ -71,6 +71,8 @@ from mfi_drake.world.validation import load_scenario
 REFINE_SIGMAS = (0.15, 0.07)  # of the unit range, one per refinement round
 JITTER_STEP = 1e-3  # [m] how far a jittered copy of a field starts from its own
 JITTER_AXES = ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))
+# Fewest candidates per method: the current gains and two Latin-hypercube points.
+MIN_CANDIDATES = 3
 
 
 class TuneError(ValueError):
@@ -100,8 +102,10 @@ class TuneConfig:
             )
         if self.walls < 0:
             raise TuneError(f"--walls = {self.walls}: must be ≥ 0")
-        if self.candidates < 3:
-            raise TuneError(f"--candidates = {self.candidates}: must be ≥ 3")
+        if self.candidates < MIN_CANDIDATES:
+            raise TuneError(
+                f"--candidates = {self.candidates}: must be ≥ {MIN_CANDIDATES}"
+            )
         if not 1 <= self.jitter <= 1 + len(JITTER_AXES):
             raise TuneError(
                 f"--jitter = {self.jitter}: must be 1 (none) to "
