@@ -137,6 +137,7 @@ def test_self_contained_inlines_mesh_files_and_keeps_the_geometry(tmp_path):
     write_obj(str(cube), *prism(np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]), 2))
     wedge = sc.Convex(file="meshes/cube.obj", scale=0.5)
     scenario = sc.Scenario(
+        goal=[6.0, 0.0, 1.5],
         obstacles=[sc.Obstacle(wedge, [3.0, 0.2, 1.4], [10.0, 20.0, 30.0])],
         base_dir=str(tmp_path),
     )
