@@ -43,3 +43,19 @@ def test_at_most_25_mb_in_all_and_2_mb_a_file(tracked):
     assert total <= MAX_TOTAL_BYTES, f"{total / 1e6:.1f} MB tracked"
     big = {p: s for p, s in size.items() if s > MAX_FILE_BYTES}
     assert not big, f"files over 2 MB: {big}"
+
+
+MAX_README_LINES = 300  # the README is a front door
+MAX_DOC_LINES = 400  # a docs page is a reference, not a diary
+
+
+def test_the_readme_and_every_docs_page_stay_short(tracked):
+    pages = {p: MAX_DOC_LINES for p in tracked if p.endswith(".md")}
+    pages["README.md"] = MAX_README_LINES
+    long = {}
+    for page, limit in pages.items():
+        with open(os.path.join(ROOT, page)) as f:
+            lines = sum(1 for _ in f)
+        if lines > limit:
+            long[page] = lines
+    assert not long, f"pages over their limit (README 300, others 400): {long}"
