@@ -311,6 +311,48 @@ def obstacle_field(
     return np.array(F), np.array(F_a)
 
 
+# Repair (i)'s tolerance [m]: how far behind an obstacle's tangent plane at the
+# closest point the goal may lie and still have the obstacle's terms faded
+# near it (round a curved obstacle the plane at the vehicle's closest point
+# leaves a goal beside it a little behind; see `terminal_weight`).
+TERMINAL_SLACK = 0.05
+
+
+def terminal_weight(r_o: np.ndarray, r_g: np.ndarray, collision_radius: float, params):
+    """The factor (0 to 1) on an obstacle's terms of the terminal approach
+    (repair (i); the baselines' `terminal_approach`): 1 where it is off.
+
+    Near a goal that lies near a surface, the obstacle terms hold the vehicle
+    short of it (eq 14's f_a ∝ r⁻³ against eq 20's K_P |r_g|). Ge & Cui
+    ("New potential functions for mobile robot path planning", IEEE T-RA
+    16(5), 2000) multiply the repulsion by a power of the goal distance ρ_g
+    so that it vanishes at the goal. Here the factor is a smoothstep of ρ_g,
+    0 within Z/2 and 1 beyond Z (Z = `params.terminal_zone`, where the goal
+    law is eq 20's PD), so nothing changes outside Z; and it acts only on an
+    obstacle that does not stand between the vehicle and the goal: the
+    tangent plane at its closest point q separates a convex obstacle from
+    the vehicle, so when the goal lies on the vehicle's side of it,
+    g = (q − p_g)·n − ρ ≥ 0, the straight PD approach stays clear of it.
+    The weight of the fade rises from 0 at g = −TERMINAL_SLACK to 1 at
+    g = 0 and falls back to 0 as g grows from R/2 to R (R =
+    `params.terminal_reach`, the obstacle terms' range): a goal farther
+    from the obstacle than its range needs no fade. A scalar factor keeps
+    each term's direction: eq 12's and eq 14's F stay ⟂ v (zero work), GF's
+    S ṗ stays gyroscopic."""
+    if not getattr(params, "terminal_approach", False):
+        return 1.0
+    zone, reach = params.terminal_zone, params.terminal_reach
+    r_o, r_g = entries(r_o), entries(r_g)
+    to_goal = norm(r_g)
+    distance = norm(r_o)
+    if to_goal >= zone or distance < TINY:
+        return 1.0
+    g = distance - dot(r_g, r_o) / distance - collision_radius
+    weight = _ramp(g, -TERMINAL_SLACK, 0.0) * _ramp(g, reach, 0.5 * reach)
+    x = _ramp(to_goal, 0.5 * zone, zone)
+    return 1.0 - weight * (1.0 - x * x * (3.0 - 2.0 * x))
+
+
 def without_push_toward(F: np.ndarray, m: np.ndarray) -> np.ndarray:
     """F less its component along unit m when that component is positive."""
     along = dot(F, m)
@@ -339,6 +381,8 @@ def superposed(field, v, obstacle, r_g, collision_radius: float, params):
         if seen <= 0.5:  # unseen: its terms are zero; skip the call
             continue
         A_i, B_i = field(v, r_o, seen, r_g, collision_radius, params)
+        fade = terminal_weight(r_o, r_g, collision_radius, params)
+        A_i, B_i = fade * A_i, fade * B_i
         if nearest and getattr(params, "project_others", False):
             m = _toward_across(r_o, v)
         elif m is not None:  # boundary following only: each B_i guards its own
