@@ -51,7 +51,7 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
     except RuntimeError as e:  # a mesh Drake cannot use
         raise sc.ScenarioError(f"{where}: obstacles: {str(e).splitlines()[0]}") from e
     for (name, point), d in zip(ends, distances, strict=True):
-        needed, words = _room(name, radius)
+        needed, words = _room(name, radius, d)
         if d < needed:
             sc.fail(
                 where,
@@ -62,19 +62,22 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
     _check_apart(where, scenario, radius)
 
 
-def _room(name: str, radius: float) -> tuple[float, str]:
+def _room(name: str, radius: float, distance: float) -> tuple[float, str]:
     """The least distance [m] an end `name` needs from any obstacle or the
-    ground, and its words: a goal's has the GOAL_MARGIN beyond the radius."""
+    ground, and its words for an end at `distance`: a goal needs the
+    GOAL_MARGIN beyond the radius."""
     words = f"the vehicle's collision radius {radius:.3f} m"
     if name.endswith("goal"):
-        margin = f"plus the goal margin {GOAL_MARGIN:.3f} m (docs/goals.md)"
-        return radius + GOAL_MARGIN, f"{words} {margin}"
+        return radius + GOAL_MARGIN, (
+            f"{words} plus the goal margin {GOAL_MARGIN:.3f} m (clearance "
+            f"{distance - radius:.3f} m; docs/goals.md)"
+        )
     return radius, words
 
 
 def _check_above_ground(where, name, point, height, radius) -> None:
     above = point[2] - height
-    needed, words = _room(name, radius)
+    needed, words = _room(name, radius, above)
     if above < needed:
         sc.fail(
             where,
