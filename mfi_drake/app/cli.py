@@ -17,7 +17,7 @@ from functools import partial
 from mfi_drake.config.scenario import ScenarioError, read_override
 from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
 from mfi_drake.systems.navigation import UserFieldError
-from mfi_drake.world.validation import load_scenario
+from mfi_drake.world.validation import least_goal_gap, load_scenario
 
 EXIT_BAD_INPUT = 2
 EXIT_FLIGHT_FAILED = 1
@@ -194,6 +194,7 @@ def cmd_sweep(args) -> int:
     from mfi_drake.studies.sweep import (
         SweepConfig,
         dask_client,
+        goal_variant,
         layered,
         motion_variant,
         run_sweep,
@@ -213,6 +214,7 @@ def cmd_sweep(args) -> int:
         out=args.out,
         moving=args.moving,
         obstacle_speed=args.obstacle_speed,
+        goal_clearance=args.goal_clearance,
     )
     texts = overrides(args)
     faults = None
@@ -222,7 +224,10 @@ def cmd_sweep(args) -> int:
         except ValueError as e:
             raise UsageError(f"--faults = {args.faults!r}: {e}") from None
     config.variant = variant_name(
-        texts, faults, motion_variant(args.moving, args.obstacle_speed)
+        texts,
+        faults,
+        motion_variant(args.moving, args.obstacle_speed),
+        goal_variant(args.goal_clearance),
     )
     modify = partial(layered, overrides=texts, faults=faults)
     try:
@@ -260,6 +265,12 @@ def _check_sweep_numbers(args) -> None:
     for d in args.density:
         if not (math.isfinite(d) and d >= 0.0):
             raise UsageError(f"--density = {d}: must be a finite number ≥ 0")
+    gap = getattr(args, "goal_clearance", None)
+    if gap is not None and not (math.isfinite(gap) and gap >= least_goal_gap()):
+        raise UsageError(
+            f"--goal-clearance = {gap}: must be a number ≥ {least_goal_gap():.3f} m "
+            "(the collision radius plus the goal margin, docs/goals.md)"
+        )
 
 
 def _check_motion_numbers(args) -> None:
@@ -454,6 +465,13 @@ def make_parser() -> argparse.ArgumentParser:
     )
     sweep.add_argument("--sensor", choices=["sphere", "depth"], default="sphere")
     add_motion(sweep, "share of each field's obstacles that move")
+    sweep.add_argument(
+        "--goal-clearance",
+        type=float,
+        metavar="M",
+        help="add to each field an obstacle whose surface is M metres from the "
+        "goal (a random kind, in a random direction; docs/goals.md)",
+    )
     sweep.add_argument(
         "--workers",
         type=int,

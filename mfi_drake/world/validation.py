@@ -18,6 +18,12 @@ from mfi_drake.world.obstacles import obstacle_distances
 GOAL_MARGIN = 0.025
 
 
+def least_goal_gap(vehicle: str = "drake_default") -> float:
+    """The least distance [m] from a goal to a surface that the loader accepts
+    for `vehicle`: its collision radius plus GOAL_MARGIN."""
+    return VEHICLES[vehicle].collision_radius + GOAL_MARGIN
+
+
 def _check_mesh(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
     path = sc.mesh_path(scenario, shape)
     if not shape.file or not os.path.isfile(path):
