@@ -19,7 +19,9 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import fields
 from mfi_drake.maths.layout import obstacle_signal
+from mfi_drake.world import generator
 from mfi_drake.world.goal_scenes import goal_scene
+from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.validation import GOAL_MARGIN, validate_scenario
 
 R = VEHICLES["drake_default"].collision_radius
@@ -172,3 +174,23 @@ def test_the_cli_refuses_a_goal_inside_the_margin(write_yaml, capsys):
     assert main(["run", path]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "goal margin" in err, err
+
+
+# --- the sweep's goals near a surface --------------------------------------------
+@pytest.mark.parametrize("index", range(4))
+def test_near_goal_puts_a_surface_at_the_gap_from_the_goal(tmp_path, index):
+    plain = generator.random_field(31, index, 0.1, str(tmp_path))
+    field = generator.near_goal(plain, 31, index, 0.3, str(tmp_path))
+    assert field.obstacles[:-1] == plain.obstacles  # the field's own, kept
+    added = dataclasses.replace(field, obstacles=field.obstacles[-1:])
+    gap = obstacle_distances(added, [field.goal])[0]  # SceneGraph's, exact
+    assert 0.3 <= gap < 0.3 + 1e-3
+    validate_scenario(field, field.name)
+
+
+def test_sweep_refuses_a_goal_clearance_inside_the_margin(tmp_path, capsys):
+    args = ["sweep", "--out", str(tmp_path), "--goal-clearance", "0.24"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--goal-clearance = 0.24" in err
+    assert "0.250 m" in err
