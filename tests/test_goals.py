@@ -20,7 +20,7 @@ from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import fields
 from mfi_drake.maths.layout import obstacle_signal
 from mfi_drake.world import generator
-from mfi_drake.world.goal_scenes import goal_scene
+from mfi_drake.world.goal_scenes import goal_scene, without_terminal_approach
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.validation import GOAL_MARGIN, validate_scenario
 
@@ -33,23 +33,13 @@ MAX_CONVERGENCE = 10.0  # s; 3.5 m at 1 m/s plus the approach (4.7–7.7 s flown
 MAX_STEPS = 1500  # integrator steps of a static scene (240–940 flown)
 
 
-def without_approach(scenario):
-    """`scenario` with every method's terminal approach off (today's "before")."""
-    return dataclasses.replace(
-        scenario,
-        navigator=dataclasses.replace(scenario.navigator, terminal_approach=False),
-        apf=dataclasses.replace(scenario.apf, terminal_approach=False),
-        gf=dataclasses.replace(scenario.gf, terminal_approach=False),
-    )
-
-
 @functools.cache
 def flown(layout: str, gap: float, method: str, approach: bool = True) -> dict:
     """The metrics of one flight of the family (each flown once a session)."""
     scenario = goal_scene(layout, gap)
     validate_scenario(scenario, scenario.name)  # the loader accepts it
     if not approach:
-        scenario = without_approach(scenario)
+        scenario = without_terminal_approach(scenario)
     flight = simulate(scenario, method, until_settled=True, stop_at_contact=True)
     return flight.metrics
 

@@ -7,6 +7,7 @@ surface (the vehicle's clearance there is gap − its collision radius).
 Walls are 0.2 m thick and 3 m tall boxes centred at the goal's height.
 """
 
+import dataclasses
 import math
 
 from mfi_drake.config import scenario as sc
@@ -102,4 +103,15 @@ def goal_scene(layout: str, gap: float, duration: float = 20.0) -> sc.Scenario:
         goal=list(GOAL),
         duration=duration,
         obstacles=_obstacles(layout, gap),
+    )
+
+
+def without_terminal_approach(scenario: sc.Scenario) -> sc.Scenario:
+    """`scenario` with the terminal approach of mfi, apf and gf off: how
+    they flew before it (mfi-paper never has it)."""
+    return dataclasses.replace(
+        scenario,
+        navigator=dataclasses.replace(scenario.navigator, terminal_approach=False),
+        apf=dataclasses.replace(scenario.apf, terminal_approach=False),
+        gf=dataclasses.replace(scenario.gf, terminal_approach=False),
     )
