@@ -16,11 +16,12 @@ from mfi_drake.app.cli import main
 from mfi_drake.config.parameters import ApfParams, GfParams, NavigatorParams
 from mfi_drake.config.scenario import ScenarioError
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.flight.methods import user_method
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import fields
 from mfi_drake.maths.layout import obstacle_signal
 from mfi_drake.world import generator
-from mfi_drake.world.goal_scenes import goal_scene, without_terminal_approach
+from mfi_drake.world.goal_scenes import GOAL, goal_scene, without_terminal_approach
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.validation import GOAL_MARGIN, validate_scenario
 
@@ -185,3 +186,46 @@ def test_sweep_refuses_a_goal_clearance_inside_the_margin(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--goal-clearance = 0.24" in err
     assert "0.250 m" in err
+
+
+# --- a user's field -----------------------------------------------------------------
+def readme_field(position, velocity, obstacle_points, goal, push=0.5):
+    """The README's example field (with its push as a gain)."""
+    to_goal = goal - position
+    force = 1.5 * to_goal / max(np.linalg.norm(to_goal), 1.0) - 2.0 * velocity
+    for r in obstacle_points:
+        force -= push * (r + np.cross(r, EZ)) / max(np.linalg.norm(r), 0.05) ** 3
+    return force
+
+
+readme_field.gains = {"push": (0.1, 2.0)}
+WRAPPED = fields.with_terminal_approach(readme_field, R)
+
+
+def test_the_wrapper_weighs_each_obstacle_term_of_a_users_field():
+    p, v, goal = np.array([3.0, 0.1, 1.5]), np.array([0.5, 0.0, 0.1]), GOAL
+    points = np.array([(R + 0.4) * EX, (R + 0.3) * EY])
+    r_g = goal - p
+    weights = [
+        fields.terminal_weight(r_o, r_g, R, fields.TerminalApproach()) for r_o in points
+    ]
+    assert weights[0] == 1.0 and weights[1] < 0.1  # the plane ahead: goal behind
+    free = readme_field(p, v, points[:0], goal)
+    by_hand = free + sum(
+        w * (readme_field(p, v, r[None], goal) - free)
+        for w, r in zip(weights, points, strict=True)
+    )
+    np.testing.assert_allclose(WRAPPED(p, v, points, goal), by_hand)
+    far = np.array([0.0, 0.0, 1.5])  # 3.5 m from the goal: the field itself
+    np.testing.assert_array_equal(
+        WRAPPED(far, v, points, goal), readme_field(far, v, points, goal)
+    )
+    assert user_method(WRAPPED, "w").gains == user_method(readme_field, "f").gains
+
+
+def test_the_readme_field_reaches_a_goal_near_a_wall_only_wrapped():
+    scenario = goal_scene("wall_ahead", 0.3)
+    plain = simulate(scenario, readme_field, until_settled=True, stop_at_contact=True)
+    wrapped = simulate(scenario, WRAPPED, until_settled=True, stop_at_contact=True)
+    assert plain.metrics["outcome"] == "timeout" and plain.metrics["final_error"] > 0.5
+    assert wrapped.metrics["outcome"] == "success", wrapped.metrics

@@ -11,6 +11,9 @@ r_g = p_g − p.
 
 from __future__ import annotations
 
+import functools
+import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -348,9 +351,49 @@ def terminal_weight(r_o: np.ndarray, r_g: np.ndarray, collision_radius: float, p
     if to_goal >= zone or distance < TINY:
         return 1.0
     g = distance - dot(r_g, r_o) / distance - collision_radius
-    weight = _ramp(g, -TERMINAL_SLACK, 0.0) * _ramp(g, reach, 0.5 * reach)
+    weight = _ramp(g, -TERMINAL_SLACK, 0.0)
+    if reach < math.inf:
+        weight = weight * _ramp(g, reach, 0.5 * reach)
     x = _ramp(to_goal, 0.5 * zone, zone)
     return 1.0 - weight * (1.0 - x * x * (3.0 - 2.0 * x))
+
+
+@dataclass(frozen=True)
+class TerminalApproach:
+    """The terminal approach of `with_terminal_approach` (the attributes
+    `terminal_weight` reads from a method's parameters)."""
+
+    terminal_zone: float = 1.0  # m, Z: the obstacle terms fade within it
+    terminal_reach: float = math.inf  # m, R: goals this far from a plane keep it
+    terminal_approach: bool = True
+
+
+def with_terminal_approach(
+    field, collision_radius: float, approach: TerminalApproach = TerminalApproach()
+):
+    """A user's navigation field `field(position, velocity, obstacle_points,
+    goal, **gains)` (see `systems.navigation.UserFieldNavigator`) with the
+    terminal approach of `terminal_weight` (docs/goals.md): each obstacle's
+    part, field(.., [r_o], ..) − field(.., [], ..), is weighed by
+    `terminal_weight`. Exact for a field that sums an attraction and one term
+    per obstacle (the README's example); k + 1 calls of `field` for k
+    readings. The default reach is unbounded, as a 1/r² repulsion is; the
+    zone should be where the field's attraction is a PD (1 m for a pull
+    K_P r_g saturated at |r_g| = 1 m)."""
+
+    @functools.wraps(field)
+    def wrapped(position, velocity, obstacle_points, goal, **gains):
+        points = np.asarray(obstacle_points, float).reshape(-1, 3)
+        free = np.asarray(field(position, velocity, points[:0], goal, **gains), float)
+        force = free.copy()
+        r_g = np.asarray(goal, float) - np.asarray(position, float)
+        for r_o in points:
+            alone = np.asarray(field(position, velocity, r_o[None], goal, **gains))
+            w = terminal_weight(r_o, r_g, collision_radius, approach)
+            force = force + w * (alone - free)
+        return force
+
+    return wrapped
 
 
 def without_push_toward(F: np.ndarray, m: np.ndarray) -> np.ndarray:
