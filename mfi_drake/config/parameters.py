@@ -238,8 +238,17 @@ class AttractionParams:
     the constant k_d v_max [N], so the vehicle cruises at v_max."""
 
 
+class BaselineTerminal:
+    """The zone of a baseline's terminal approach (`fields.terminal_weight`):
+    d* = k_d v_max / k_att, within which its attraction is eq 20's PD."""
+
+    @property
+    def terminal_zone(self) -> float:
+        return cone_radius(self.attraction)
+
+
 @dataclass
-class ApfParams:
+class ApfParams(BaselineTerminal):
     """The APF baseline (scenario field `apf:`). Defaults: the best of the
     grid in docs/tune_baselines.py (see docs/comparison.md)."""
 
@@ -258,16 +267,12 @@ class ApfParams:
     (`fields.terminal_weight`, docs/goals.md)."""
 
     @property
-    def terminal_zone(self) -> float:
-        return cone_radius(self.attraction)
-
-    @property
     def terminal_reach(self) -> float:
         return self.rho_0
 
 
 @dataclass
-class GfParams:
+class GfParams(BaselineTerminal):
     """The GF baseline (scenario field `gf:`). Defaults: the best of the grid
     in docs/tune_baselines.py (see docs/comparison.md); so strong that
     near an obstacle the steering is limited by the tilt limit, not k_g."""
@@ -293,10 +298,6 @@ class GfParams:
     the goal on the vehicle's side and within the obstacle's shell
     (`fields.terminal_weight`, docs/goals.md). Off: the repulsion holds the
     vehicle short of a goal near a surface."""
-
-    @property
-    def terminal_zone(self) -> float:
-        return cone_radius(self.attraction)
 
     @property
     def terminal_reach(self) -> float:
