@@ -416,6 +416,8 @@ def superposed(field, v, obstacle, r_g, collision_radius: float, params):
     stays ⟂ v (zero work), and only the nearest obstacle's own field turns
     the heading toward it. The second terms (eq 14's collision avoidance)
     are all kept: each guards against its own obstacle, also in a gap.
+    Each obstacle's terms are first weighed by `terminal_weight` (the
+    terminal approach; 1 where it is off or far from the goal).
     """
     A = B = _zero3(v)
     nearest = True
