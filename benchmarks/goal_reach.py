@@ -2,10 +2,11 @@
 after the terminal approach (docs/goals.md).
 
     python benchmarks/goal_reach.py [--gaps 0.25 0.3 0.4 0.5 0.6] [--workers 1]
-        [--out docs/figures]
+        [--layouts wall_ahead ...] [--out docs/figures]
 
-Flies every scene of `world.goal_scenes.LAYOUTS` at every gap with mfi,
-gf, apf (each with its terminal approach on, "after", and off, "before":
+Flies every scene of `world.goal_scenes.LAYOUTS` (or --layouts) at every
+gap with mfi, gf, apf (each with its terminal approach on, "after", and off,
+"before":
 `goal_scenes.without_terminal_approach`) and mfi-paper (the paper's field,
 which has none), each ended at rest at the goal or at contact as a sweep
 ends it. Writes OUT/goal_reach.png (per method: the successes out of the
@@ -45,10 +46,10 @@ def fly(task: tuple) -> dict:
     }
 
 
-def tasks(gaps) -> list[tuple]:
+def tasks(layouts, gaps) -> list[tuple]:
     return [
         (layout, gap, method, approach)
-        for layout in LAYOUTS
+        for layout in layouts
         for gap in gaps
         for method in METHODS
         for approach in ((True, False) if method in WITH_APPROACH else (False,))
@@ -81,8 +82,9 @@ def curves(records: list[dict], gaps) -> dict:
 
 
 def table(records: list[dict], gaps) -> str:
+    layouts = list(dict.fromkeys(r["layout"] for r in records))
     lines = [
-        "Successes of the layouts (" + ", ".join(LAYOUTS) + "), collisions and "
+        "Successes of the layouts (" + ", ".join(layouts) + "), collisions and "
         "the median final distance to the goal [m], against the goal's gap "
         "from the surface [m]. Before: the terminal approach off.",
         "",
@@ -140,7 +142,7 @@ def figure(records: list[dict], gaps, path: str) -> None:
         ax_err.plot(gaps, err, style, marker="o", color=colour, label=label + when)
     ax_ok.set(
         xlabel="goal's gap from the surface [m]",
-        ylabel=f"success (share of {len(LAYOUTS)} layouts)",
+        ylabel="success (share of the layouts)",
         ylim=(-0.05, 1.05),
     )
     ax_err.set(
@@ -160,12 +162,18 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument(
         "--gaps", type=float, nargs="+", default=[0.25, 0.3, 0.4, 0.5, 0.6]
     )
-    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--layouts", nargs="+", choices=LAYOUTS, default=LAYOUTS)
+    parser.add_argument(
+        "--workers", type=int, default=1, help="processes (1: this one)"
+    )
     parser.add_argument("--out", default=os.path.join("docs", "figures"))
     args = parser.parse_args(argv)
-    todo = tasks(args.gaps)
-    with ProcessPoolExecutor(args.workers) as pool:
-        records = list(pool.map(fly, todo))
+    todo = tasks(args.layouts, args.gaps)
+    if args.workers == 1:  # in this process
+        records = [fly(task) for task in todo]
+    else:
+        with ProcessPoolExecutor(args.workers) as pool:
+            records = list(pool.map(fly, todo))
     write_text(os.path.join(args.out, "goal_reach.md"), table(records, args.gaps))
     figure(records, args.gaps, os.path.join(args.out, "goal_reach.png"))
     print(table(records, args.gaps).split("\n\n")[1])

@@ -8,6 +8,8 @@ stays short of such goals as the paper's field does (shown below)."""
 
 import dataclasses
 import functools
+import importlib.util
+import os
 
 import numpy as np
 import pytest
@@ -24,6 +26,8 @@ from mfi_drake.world import generator
 from mfi_drake.world.goal_scenes import GOAL, goal_scene, without_terminal_approach
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.validation import GOAL_MARGIN, validate_scenario
+
+from .conftest import ROOT
 
 R = VEHICLES["drake_default"].collision_radius
 EX, EY, EZ = np.eye(3)
@@ -229,3 +233,22 @@ def test_the_readme_field_reaches_a_goal_near_a_wall_only_wrapped():
     wrapped = simulate(scenario, WRAPPED, until_settled=True, stop_at_contact=True)
     assert plain.metrics["outcome"] == "timeout" and plain.metrics["final_error"] > 0.5
     assert wrapped.metrics["outcome"] == "success", wrapped.metrics
+
+
+def test_the_reach_benchmark_writes_its_table_and_figure(tmp_path, capsys):
+    path = os.path.join(ROOT, "benchmarks", "goal_reach.py")
+    spec = importlib.util.spec_from_file_location("goal_reach", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    argv = ["--layouts", "wall_ahead", "--gaps", "0.3", "--out", str(tmp_path)]
+    records = module.main(argv)
+    assert len(records) == 7  # mfi, gf, apf before and after; mfi-paper
+    outcomes = {(r["method"], r["approach"]): r["outcome"] for r in records}
+    assert outcomes == {
+        **{(m, True): "success" for m in METHODS},
+        **{(m, False): "timeout" for m in (*METHODS, "mfi-paper")},
+    }
+    text = (tmp_path / "goal_reach.md").read_text()
+    assert "| mfi, after | 1/1, 0.000 |" in text and "| mfi-paper | 0/1" in text
+    assert (tmp_path / "goal_reach.png").read_bytes().startswith(b"\x89PNG")
+    assert "| apf, before | 0/1" in capsys.readouterr().out
