@@ -21,7 +21,7 @@ from functools import partial
 from mfi_drake.config.scenario import ScenarioError, read_override
 from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
 from mfi_drake.systems.navigation import UserFieldError
-from mfi_drake.world.validation import load_scenario
+from mfi_drake.world.validation import least_goal_gap, load_scenario
 
 EXIT_BAD_INPUT = 2
 EXIT_FLIGHT_FAILED = 1
@@ -240,6 +240,7 @@ def cmd_sweep(args) -> int:
         ClusterError,
         SweepConfig,
         dask_client,
+        goal_variant,
         layered,
         motion_variant,
         run_sweep,
@@ -259,6 +260,7 @@ def cmd_sweep(args) -> int:
         out=args.out,
         moving=args.moving,
         obstacle_speed=args.obstacle_speed,
+        goal_clearance=args.goal_clearance,
     )
     texts = overrides(args)
     faults = None
@@ -268,7 +270,10 @@ def cmd_sweep(args) -> int:
         except ValueError as e:
             raise UsageError(f"--faults = {args.faults!r}: {e}") from None
     config.variant = variant_name(
-        texts, faults, motion_variant(args.moving, args.obstacle_speed)
+        texts,
+        faults,
+        motion_variant(args.moving, args.obstacle_speed),
+        goal_variant(args.goal_clearance),
     )
     modify = partial(layered, overrides=texts, faults=faults)
     try:
@@ -313,6 +318,12 @@ def _check_sweep_numbers(args) -> None:
     _at_least("--workers", args.workers, 1)
     _at_least("--seed", args.seed, 0)
     _densities("--density", args.density)
+    gap = getattr(args, "goal_clearance", None)
+    if gap is not None and not (math.isfinite(gap) and gap >= least_goal_gap()):
+        raise UsageError(
+            f"--goal-clearance = {gap}: must be a number ≥ {least_goal_gap():.3f} m "
+            "(the collision radius plus the goal margin, docs/goals.md)"
+        )
 
 
 def _check_held_out_numbers(args) -> None:
@@ -658,6 +669,14 @@ def make_parser() -> argparse.ArgumentParser:
         "or the depth camera (docs/depth_camera.md)",
     )
     add_motion(sweep, "share of each field's obstacles that move")
+    sweep.add_argument(
+        "--goal-clearance",
+        type=float,
+        metavar="M",
+        help="add to each field an obstacle whose surface is M metres from the "
+        "goal (a random kind, in a random direction; docs/goals.md); at least "
+        "the collision radius plus the goal margin (default: none)",
+    )
     add_workers(sweep)
     sweep.add_argument(
         "--faults",

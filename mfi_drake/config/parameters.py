@@ -11,6 +11,8 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
+from mfi_drake.maths.baselines import cone_radius
+
 
 @dataclass
 class NavigatorParams:
@@ -79,6 +81,14 @@ class NavigatorParams:
     to 1.5–2 m/s, where the tilt limit could no longer turn it. F, F_a and
     F_gc stay ⟂ v; D vanishes on a straight cruise. Collisions at density
     0.2 fell from 5 to 1 of 200 held-out fields (docs/comparison.md)."""
+    terminal_approach: bool = True
+    """(i) Within r_gl of the goal (eq 21's PD zone) each obstacle's terms
+    (eq 12, eq 14) fade to zero at r_gl/2, as Ge & Cui's goal-distance
+    factor fades a potential field's repulsion, but only for an obstacle
+    whose tangent plane at the closest point leaves the goal on the
+    vehicle's side and within r_l of it: eq 20 then settles the vehicle at
+    a goal near a surface instead of hovering where eq 14 balances it
+    (`fields.terminal_weight`, docs/goals.md)."""
     # --- goal attraction, §IV-B -----------------------------------------
     K_omega: float = 1.5
     """Heading gain K_ω of eq 17 [kg/s]."""
@@ -136,6 +146,16 @@ class NavigatorParams:
     attitude_damping_ratio: float = 0.9
     """ζ of eq 25's loops [-]: K_Dθ = 2 ζ ω_n J."""
 
+    @property
+    def terminal_zone(self) -> float:
+        """Goal distance within which repair (i) fades obstacle terms [m]."""
+        return self.r_gl
+
+    @property
+    def terminal_reach(self) -> float:
+        """Goal clearance beyond which repair (i) leaves an obstacle whole [m]."""
+        return self.r_l
+
 
 REPAIRS = (
     "follow_blocking_only",
@@ -146,6 +166,7 @@ REPAIRS = (
     "tapered_range",
     "lag_drag",
     "follow_ahead_only",
+    "terminal_approach",
 )
 
 
@@ -217,8 +238,17 @@ class AttractionParams:
     the constant k_d v_max [N], so the vehicle cruises at v_max."""
 
 
+class BaselineTerminal:
+    """The zone of a baseline's terminal approach (`fields.terminal_weight`):
+    d* = k_d v_max / k_att, within which its attraction is eq 20's PD."""
+
+    @property
+    def terminal_zone(self) -> float:
+        return cone_radius(self.attraction)
+
+
 @dataclass
-class ApfParams:
+class ApfParams(BaselineTerminal):
     """The APF baseline (scenario field `apf:`). Defaults: the best of the
     grid in docs/tune_baselines.py (see docs/comparison.md)."""
 
@@ -229,10 +259,20 @@ class ApfParams:
     """Repulsion range ρ₀ [m], from the grown obstacle."""
     min_distance: float = 1e-3
     """Floor on r [m], so the repulsion stays finite at contact."""
+    terminal_approach: bool = True
+    """Ge & Cui's fix of goals near obstacles (IEEE T-RA 16(5), 2000): within
+    d* = k_d v_max / k_att of the goal each obstacle's repulsion fades to
+    zero at d*/2, for an obstacle whose tangent plane at the closest point
+    leaves the goal on the vehicle's side and within ρ₀ of it
+    (`fields.terminal_weight`, docs/goals.md)."""
+
+    @property
+    def terminal_reach(self) -> float:
+        return self.rho_0
 
 
 @dataclass
-class GfParams:
+class GfParams(BaselineTerminal):
     """The GF baseline (scenario field `gf:`). Defaults: the best of the grid
     in docs/tune_baselines.py (see docs/comparison.md); so strong that
     near an obstacle the steering is limited by the tilt limit, not k_g."""
@@ -250,6 +290,18 @@ class GfParams:
     """|n⊥| below which the fallback direction is blended in (head-on) [-]."""
     min_distance: float = 1e-3
     """Floor on r [m], so the fields stay finite at contact."""
+    terminal_approach: bool = True
+    """Within d* = k_d v_max / k_att of the goal (where the attraction is
+    eq 20's PD) each obstacle's terms fade to zero at d*/2, as Ge & Cui's
+    goal-distance factor fades the repulsion (IEEE T-RA 16(5), 2000), but
+    only for an obstacle whose tangent plane at the closest point leaves
+    the goal on the vehicle's side and within the obstacle's shell
+    (`fields.terminal_weight`, docs/goals.md). Off: the repulsion holds the
+    vehicle short of a goal near a surface."""
+
+    @property
+    def terminal_reach(self) -> float:
+        return self.r_d
 
 
 def baseline_problems(params: ApfParams | GfParams) -> list[tuple[str, object, str]]:

@@ -114,6 +114,8 @@ class SweepConfig:
     variant: str = ""  # names the `modify` applied to every field ("" = none)
     moving: float = 0.0  # share of each field's obstacles that move
     obstacle_speed: float = 0.0  # m/s, of those that move
+    # m: add an obstacle whose surface is this far from the goal (None: none)
+    goal_clearance: float | None = None
 
     def flight_keys(self) -> list[FlightKey]:
         return [
@@ -596,11 +598,24 @@ def make_field(config: SweepConfig, density: float, index: int) -> Scenario:
     scenario = generator.random_field(
         config.seed, index, density, sensor=SENSORS[config.sensor]()
     )
+    if config.goal_clearance is not None:
+        scenario = generator.near_goal(
+            scenario,
+            config.seed,
+            index,
+            config.goal_clearance,
+            os.path.join(config.out, "fields"),
+        )
     if config.moving > 0.0:
         scenario = generator.set_in_motion(
             scenario, config.seed, index, config.moving, config.obstacle_speed
         )
     return scenario
+
+
+def goal_variant(gap: float | None) -> str:
+    """A name for a sweep variant of goals near a surface ("" for none)."""
+    return "" if gap is None else f"goal_clearance={gap:g}"
 
 
 def motion_variant(share: float, speed: float) -> str:
@@ -730,11 +745,14 @@ def variant_name(
     overrides: list[tuple[str, str]] = (),
     faults: Faults | None = None,
     motion: str = "",
+    goal: str = "",
 ) -> str:
-    """The sweep variant of a motion (`motion_variant`), overrides and
-    faults: their names joined by commas, "" for none of them."""
+    """The sweep variant of a motion (`motion_variant`), goals near a
+    surface (`goal_variant`), overrides and faults: their names joined by
+    commas, "" for none of them."""
     parts = [
         motion,
+        goal,
         override_variant(overrides),
         fault_variant(faults) if faults is not None else "",
     ]

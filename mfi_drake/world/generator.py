@@ -25,6 +25,12 @@ much room. Field `index` at seed `seed` uses the random stream
 reproducible and a denser field with the same seed and index holds the
 sparser one's obstacles plus more.
 
+`near_goal` adds one obstacle of a random kind, size and orientation whose
+surface lies a given gap from the goal, in a uniformly random direction from
+it (docs/goals.md): the class of goals near surfaces. Its draws come from
+default_rng([seed, index, GOAL_STREAM]), so the field's other obstacles are
+those of the plain field.
+
 `set_in_motion` makes a share of a field's obstacles move (docs/dynamic.md):
 each chosen obstacle circles its drawn position at a constant speed, on a
 circle of radius A in a random plane, from a random point of it; A is drawn
@@ -96,6 +102,7 @@ DEFAULT_DURATION = 60.0  # s of simulated time, ≥ 3× a 1 m/s flight of the li
 CIRCLE_RADII = (1.0, 2.0)  # m, a moving obstacle's circle (set_in_motion)
 MIN_CIRCLE = 0.25  # m, an obstacle with less room to move stays put
 MOTION_STREAM = 1  # the random stream of set_in_motion
+GOAL_STREAM = 3  # the random stream of near_goal
 
 
 def field_name(seed: int, index: int, density: float) -> str:
@@ -232,6 +239,44 @@ def _field(
         vehicle=vehicle,
         sensor=sensor if sensor is not None else sc.SphereSensor(),
         **fields,
+    )
+
+
+def near_goal(
+    scenario: sc.Scenario, seed: int, index: int, gap: float, mesh_dir: str
+) -> sc.Scenario:
+    """`scenario` (field `index` of seed `seed`) with one more obstacle,
+    drawn as `random_obstacle` draws one, moved along a uniformly random
+    direction u from the goal until its surface is `gap` metres from the
+    goal (to 0.1 mm, never less; see the module docstring). The signed
+    distance to a convex body is convex along the ray and negative at its
+    centre: it crosses `gap` once.
+    A convex obstacle's mesh is written into `mesh_dir`."""
+    rng = np.random.default_rng([seed, index, GOAL_STREAM])
+    goal = np.asarray(scenario.goal, float)
+    mesh_file = os.path.join(mesh_dir, f"{scenario.name}_near_goal.obj")
+    os.makedirs(mesh_dir, exist_ok=True)
+    obstacle = random_obstacle(rng, goal, goal, mesh_file)
+    u = rng.normal(size=3)
+    u /= np.linalg.norm(u)
+
+    def gap_at(t: float) -> float:
+        moved = dataclasses.replace(obstacle, position=[float(x) for x in goal + t * u])
+        return obstacle_distances(
+            dataclasses.replace(scenario, obstacles=[moved]), [goal]
+        )[0]
+
+    low, high = 0.0, 1.0
+    while gap_at(high) < gap:
+        low, high = high, 2.0 * high
+    while high - low > 1e-4:
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if gap_at(middle) < gap else (low, middle)
+    placed = dataclasses.replace(obstacle, position=[float(x) for x in goal + high * u])
+    return dataclasses.replace(
+        scenario,
+        name=f"{scenario.name}_g{gap:g}",
+        obstacles=[*scenario.obstacles, placed],
     )
 
 

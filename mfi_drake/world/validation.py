@@ -12,6 +12,21 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.shapes import convex_points, mesh_file
 
+# [m] a goal's least room beyond the vehicle's collision radius: every
+# method's terminal approach (docs/goals.md) settles at a goal with at least
+# this much clearance; the family of tests/test_goals.py flies it.
+GOAL_MARGIN = 0.025
+# [m] distances are compared this much short of what is needed: SceneGraph's
+# distance to a sphere whose surface is placed exactly at the margin comes
+# out a few ulps short.
+ROUNDING = 1e-9
+
+
+def least_goal_gap(vehicle: str = "drake_default") -> float:
+    """The least distance [m] from a goal to a surface that the loader accepts
+    for `vehicle`: its collision radius plus GOAL_MARGIN."""
+    return VEHICLES[vehicle].collision_radius + GOAL_MARGIN
+
 
 def _check_mesh(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
     """A readable mesh file or inline vertices, spanning a volume."""
@@ -49,26 +64,39 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
     except RuntimeError as e:  # a mesh Drake cannot use
         raise sc.ScenarioError(f"{where}: obstacles: {str(e).splitlines()[0]}") from e
     for (name, point), d in zip(ends, distances, strict=True):
-        if d < radius:
+        needed, words = _room(name, radius, d)
+        if d < needed - ROUNDING:
             sc.fail(
                 where,
                 name,
                 point,
-                f"is {d:.3f} m from an obstacle, closer than the vehicle's "
-                f"collision radius {radius:.3f} m",
+                f"is {d:.3f} m from an obstacle, closer than {words}",
             )
     _check_apart(where, scenario, radius)
 
 
+def _room(name: str, radius: float, distance: float) -> tuple[float, str]:
+    """The least distance [m] an end `name` needs from any obstacle or the
+    ground, and its words for an end at `distance`: a goal needs the
+    GOAL_MARGIN beyond the radius."""
+    words = f"the vehicle's collision radius {radius:.3f} m"
+    if name.endswith("goal"):
+        return radius + GOAL_MARGIN, (
+            f"{words} plus the goal margin {GOAL_MARGIN:.3f} m (clearance "
+            f"{distance - radius:.3f} m; docs/goals.md)"
+        )
+    return radius, words
+
+
 def _check_above_ground(where, name, point, height, radius) -> None:
     above = point[2] - height
-    if above < radius:
+    needed, words = _room(name, radius, above)
+    if above < needed - ROUNDING:
         sc.fail(
             where,
             name,
             point,
-            f"is {above:.3f} m above the ground at z = {height:g} m, less than "
-            f"the vehicle's collision radius {radius:.3f} m",
+            f"is {above:.3f} m above the ground at z = {height:g} m, less than {words}",
         )
 
 
