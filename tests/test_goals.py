@@ -174,9 +174,9 @@ def test_the_cli_refuses_a_goal_inside_the_margin(write_yaml, capsys):
 
 # --- the sweep's goals near a surface --------------------------------------------
 @pytest.mark.parametrize("index", range(4))
-def test_near_goal_puts_a_surface_at_the_gap_from_the_goal(tmp_path, index):
-    plain = generator.random_field(31, index, 0.1, str(tmp_path))
-    field = generator.near_goal(plain, 31, index, 0.3, str(tmp_path))
+def test_near_goal_puts_a_surface_at_the_gap_from_the_goal(index):
+    plain = generator.random_field(31, index, 0.1)
+    field = generator.near_goal(plain, 31, index, 0.3)
     assert field.obstacles[:-1] == plain.obstacles  # the field's own, kept
     added = dataclasses.replace(field, obstacles=field.obstacles[-1:])
     gap = obstacle_distances(added, [field.goal])[0]  # SceneGraph's, exact

@@ -600,11 +600,7 @@ def make_field(config: SweepConfig, density: float, index: int) -> Scenario:
     )
     if config.goal_clearance is not None:
         scenario = generator.near_goal(
-            scenario,
-            config.seed,
-            index,
-            config.goal_clearance,
-            os.path.join(config.out, "fields"),
+            scenario, config.seed, index, config.goal_clearance
         )
     if config.moving > 0.0:
         scenario = generator.set_in_motion(

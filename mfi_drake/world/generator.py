@@ -242,21 +242,16 @@ def _field(
     )
 
 
-def near_goal(
-    scenario: sc.Scenario, seed: int, index: int, gap: float, mesh_dir: str
-) -> sc.Scenario:
+def near_goal(scenario: sc.Scenario, seed: int, index: int, gap: float) -> sc.Scenario:
     """`scenario` (field `index` of seed `seed`) with one more obstacle,
     drawn as `random_obstacle` draws one, moved along a uniformly random
     direction u from the goal until its surface is `gap` metres from the
     goal (to 0.1 mm, never less; see the module docstring). The signed
     distance to a convex body is convex along the ray and negative at its
-    centre: it crosses `gap` once.
-    A convex obstacle's mesh is written into `mesh_dir`."""
+    centre: it crosses `gap` once."""
     rng = np.random.default_rng([seed, index, GOAL_STREAM])
     goal = np.asarray(scenario.goal, float)
-    mesh_file = os.path.join(mesh_dir, f"{scenario.name}_near_goal.obj")
-    os.makedirs(mesh_dir, exist_ok=True)
-    obstacle = random_obstacle(rng, goal, goal, mesh_file)
+    obstacle = random_obstacle(rng, goal, goal)
     u = rng.normal(size=3)
     u /= np.linalg.norm(u)
 
