@@ -270,7 +270,10 @@ def test_a_cluster_without_workers_is_one_line(
     empty = Cluster(tmp_path / "empty", client_dir)
     monkeypatch.setattr(sweep, "WORKER_WAIT", 2.0)
     try:
-        for command in (["sweep", "--n", "1"], ["tune", "--methods", "gf", "--n", "1"]):
+        for command in (
+            ["sweep", "--n", "1"],
+            ["tune", "--methods", "gf", "--n", "1", "--held-out-seed", "9"],
+        ):
             args = [
                 *command,
                 "--scheduler",
