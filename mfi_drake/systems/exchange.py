@@ -43,6 +43,7 @@ from mfi_drake.maths.layout import (
     obstacle_signal,
 )
 from mfi_drake.maths.motion import along_normal
+from mfi_drake.systems.last_result import LastResult
 from mfi_drake.systems.relative import VELOCITY_SIGNAL_SIZE
 from mfi_drake.systems.sensors import VEHICLE_RGBA
 from mfi_drake.world.obstacles import sensed
@@ -106,34 +107,27 @@ class OtherVehicleReadings(LeafSystem):
         )
         tickets = {p.ticket() for p in (self._state, self._obstacle, self._message)}
         tickets.add(self.time_ticket())
-        self._last = (None, None)
-        self.DeclareVectorOutputPort(
-            "obstacle",
-            OBSTACLE_SIGNAL_SIZE,
-            lambda context, out: out.SetFromVector(self._merged(context)[0]),
-            prerequisites_of_calc=tickets,
+        self._last = LastResult()
+        outputs = (
+            ("obstacle", OBSTACLE_SIGNAL_SIZE),
+            ("obstacle_velocity", VELOCITY_SIGNAL_SIZE),
         )
-        self.DeclareVectorOutputPort(
-            "obstacle_velocity",
-            VELOCITY_SIGNAL_SIZE,
-            lambda context, out: out.SetFromVector(self._merged(context)[1]),
-            prerequisites_of_calc=tickets,
-        )
+        for k, (name, size) in enumerate(outputs):
+            self.DeclareVectorOutputPort(
+                name,
+                size,
+                lambda context, out, k=k: out.SetFromVector(self._merged(context)[k]),
+                prerequisites_of_calc=tickets,
+            )
 
     def _merged(self, context) -> tuple[np.ndarray, np.ndarray]:
         """(the readings, their velocities), computed once for both ports."""
         p = self._state.Eval(context)[POSITION]
         scene = self._obstacle.Eval(context)
         received = self._message.Eval(context)
-        key = (context.get_time(), p.tobytes(), scene.tobytes(), received.tobytes())
-        if self._last[0] != key:
-            self._last = (
-                key,
-                merge(
-                    p, scene, received, context.get_time(), self._radius, self._reach
-                ),
-            )
-        return self._last[1]
+        t = context.get_time()
+        key = (t, p.tobytes(), scene.tobytes(), received.tobytes())
+        return self._last(key, merge, p, scene, received, t, self._radius, self._reach)
 
 
 def merge(p, scene, received, t, radius, reach) -> tuple[np.ndarray, np.ndarray]:
