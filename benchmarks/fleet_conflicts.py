@@ -9,8 +9,9 @@ Printed per flight: the outcome, the least separation, deadlocks (vehicles
 short of their goals at the end without contact), and the side each vehicle
 chose: the sign of its angular momentum about the circle's centre, (p × v)_z
 summed over the logged steps while it is within 2 m of the centre: + it
-went round anticlockwise (seen from above: it passed the centre on its
-right), − clockwise. A roundabout: every vehicle chose the same side.
+went round anticlockwise seen from above (the centre on its left: it
+swerved right), − clockwise (it swerved left). A roundabout: every vehicle
+chose the same side.
 """
 
 import argparse
