@@ -242,3 +242,34 @@ def test_sweep_rejects_a_fleet_of_none(tmp_path, capsys):
     assert main(["sweep", "--vehicles", "0", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--vehicles = 0" in err
+
+
+def straight_at_the_goal(position, velocity, obstacle_points, goal):
+    """A user field that pulls to the goal and ignores everything in the way."""
+    return 1.5 * (np.asarray(goal) - position) - 2.0 * velocity
+
+
+def test_a_fleet_stops_at_the_first_exchange_where_two_vehicles_touch():
+    scene = sc.Scenario(
+        name="ram",
+        start=[0.0, 0.0, 2.0],
+        goal=[6.0, 0.0, 2.0],
+        duration=10.0,
+        other_vehicles=[OtherVehicle([6.0, 0.0, 2.0], [0.0, 0.0, 2.0])],
+    )
+    whole = simulate(scene, straight_at_the_goal)
+    stopped = simulate(scene, straight_at_the_goal, stop_at_contact=True)
+    assert whole.metrics["outcome"] == stopped.metrics["outcome"] == "collision"
+    end = stopped.times[-1]
+    assert end < 0.5 * whole.times[-1]
+    assert end * scene.exchange_hz == pytest.approx(round(end * scene.exchange_hz))
+
+    def gap(t):  # the centres' distance in the whole flight, at time t
+        a, b = (
+            [np.interp(t, f.times, f.positions[:, d]) for d in range(3)]
+            for f in (whole, whole.others[0])
+        )
+        return math.dist(a, b)
+
+    touching = 2 * whole.collision_radius
+    assert gap(end) < touching <= gap(end - 1.0 / scene.exchange_hz)

@@ -225,10 +225,15 @@ def contact_monitor(flight: FlightDiagram):
     is one the metrics call collided. (A vehicle pressed against an obstacle
     by eq 15's r⁻³ force, up to 1e9 N at contact, chatters along it at 10⁵
     steps: minutes of a sweep for a known outcome.) Read before any sensor
-    fault, for sphere sensors only: a camera's reading is a percept."""
+    fault, for sphere sensors only: a camera's reading is a percept. Among
+    several vehicles it reads the scene alone (the input of
+    `OtherVehicleReadings`): the others' spheres there are extrapolated,
+    and `fly_fleet` judges their contacts from the exchanged true states."""
     radius = flight.vehicle.collision_radius
     sensor = flight.sensor
     port = sensor.GetOutputPort("obstacle")
+    if flight.scenario.other_vehicles:
+        port = sensor.GetInputPort("obstacle")
     if not isinstance(flight.scenario.sensor, SphereSensor):
         return lambda context: EventStatus.Succeeded()
 
@@ -299,7 +304,9 @@ def fly_fleet(
     from which it extrapolates them linearly until the
     next exchange. Returns the first vehicle's Flight with the others in
     `others`. `stop_at_contact`: the fleet ends at the exchange after a
-    vehicle's sphere sensor reads contact. `until_settled`: it ends once
+    vehicle's sphere sensor reads contact with the scene, or at an exchange
+    where two vehicles' centres are closer than their two collision radii.
+    `until_settled`: it ends once
     every vehicle has been at rest at its goal (`settled_monitor`, checked
     at the exchanges) for SETTLE_HOLD, where nothing but the vehicles moves
     (`settles` without the other vehicles)."""
@@ -314,7 +321,10 @@ def fly_fleet(
         if quiet
     ]
 
-    def exchange() -> None:
+    radius = fleet[0].vehicle.collision_radius
+
+    def exchange() -> bool:
+        """Sends every vehicle its message; whether two vehicles touch."""
         states = np.array(
             [
                 flight.plant.GetMyContextFromRoot(context)
@@ -328,6 +338,9 @@ def fly_fleet(
             port.FixValue(
                 context, message(t, states[:, POSITION], states[:, VELOCITY], k)
             )
+        p = states[:, POSITION]
+        gaps = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=2)
+        return bool((gaps[np.triu_indices(len(p), 1)] < 2.0 * radius).any())
 
     start, start_cpu = time.perf_counter(), time.process_time()
     exchange()
@@ -341,7 +354,8 @@ def fly_fleet(
             simulator.AdvanceTo(t)
         if any(context.get_time() < t for context in contexts):
             break  # a contact monitor ended its vehicle's flight
-        exchange()
+        if exchange() and stop_at_contact:
+            break
         # Every monitor sees every exchange: each counts its own hold.
         resting = [monitor(context).severity() for monitor, context in settled]
         if settled and all(r == RESTING for r in resting):
