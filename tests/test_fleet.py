@@ -192,16 +192,22 @@ def test_a_small_antipodal_swap_reaches_every_goal_without_contact(swap):
     assert least_separation(flights) <= min(gaps) - 2 * swap.collision_radius + 1e-12
 
 
-def test_the_exchange_rate_moves_an_offset_meeting_by_little():
-    # Two vehicles meeting nearly head-on, 0.4 m apart sideways: no symmetry
-    # for rounding to break, so the flights must agree across rates.
-    scene = sc.Scenario(
-        name="offset",
+def _meeting(offset: float) -> sc.Scenario:
+    """Two vehicles swapping the ends of a 6 m line, the second `offset` m
+    to the side."""
+    return sc.Scenario(
+        name="meeting",
         start=[0.0, 0.0, 2.0],
         goal=[6.0, 0.0, 2.0],
         duration=10.0,
-        other_vehicles=[OtherVehicle([6.0, 0.4, 2.0], [0.0, 0.4, 2.0])],
+        other_vehicles=[OtherVehicle([6.0, offset, 2.0], [0.0, offset, 2.0])],
     )
+
+
+def test_the_exchange_rate_moves_an_offset_meeting_by_little():
+    # Two vehicles meeting nearly head-on, 0.4 m apart sideways: no symmetry
+    # for rounding to break, so the flights must agree across rates.
+    scene = _meeting(0.4)
     slow, fast = (
         simulate(dataclasses.replace(scene, exchange_hz=hz)).metrics for hz in (10, 40)
     )
@@ -250,13 +256,7 @@ def straight_at_the_goal(position, velocity, obstacle_points, goal):
 
 
 def test_a_fleet_stops_at_the_first_exchange_where_two_vehicles_touch():
-    scene = sc.Scenario(
-        name="ram",
-        start=[0.0, 0.0, 2.0],
-        goal=[6.0, 0.0, 2.0],
-        duration=10.0,
-        other_vehicles=[OtherVehicle([6.0, 0.0, 2.0], [0.0, 0.0, 2.0])],
-    )
+    scene = _meeting(0.0)
     whole = simulate(scene, straight_at_the_goal)
     stopped = simulate(scene, straight_at_the_goal, stop_at_contact=True)
     assert whole.metrics["outcome"] == stopped.metrics["outcome"] == "collision"
