@@ -236,6 +236,12 @@ def cmd_sweep(args) -> int:
     _need_dask()
     from mfi_drake.app.figures import plot_sweep
     from mfi_drake.config.faults import faults_from_yaml
+    from mfi_drake.studies.fleet_sweep import (
+        FLEET,
+        FleetSweepConfig,
+        fleet_table,
+        fleet_variant,
+    )
     from mfi_drake.studies.sweep import (
         ClusterError,
         SweepConfig,
@@ -251,7 +257,12 @@ def cmd_sweep(args) -> int:
     methods = parse_methods(args.methods) if args.methods else list(METHODS)
     _check_sweep_numbers(args)
     _check_motion_numbers(args)
-    config = SweepConfig(
+    if args.vehicles < 1:
+        raise UsageError(f"--vehicles = {args.vehicles}: must be ≥ 1")
+    fleet = args.vehicles > 1  # studies.fleet_sweep
+    more = {"vehicles": args.vehicles} if fleet else {}
+    config = (FleetSweepConfig if fleet else SweepConfig)(
+        **more,
         n=args.n,
         seed=args.seed,
         methods=methods,
@@ -275,10 +286,12 @@ def cmd_sweep(args) -> int:
         motion_variant(args.moving, args.obstacle_speed),
         goal_variant(args.goal_clearance),
     )
+    if fleet:
+        config.variant = fleet_variant(args.vehicles, config.variant)
     modify = partial(layered, overrides=texts, faults=faults)
     try:
         with dask_client(args.workers, args.scheduler, methods) as client:
-            run = run_sweep(config, client, modify)
+            run = run_sweep(config, client, modify, tasks=FLEET if fleet else None)
     except KeyboardInterrupt:
         print(
             f"mfi-drake: interrupted; finished flights are in {args.out}/results.jsonl,"
@@ -288,14 +301,16 @@ def cmd_sweep(args) -> int:
         return 130
     except ClusterError as e:  # unreachable, refused, no workers, ...
         raise UsageError(str(e)) from None
-    plot_sweep(run.summary, os.path.join(args.out, "sweep.png"))
+    if not fleet:
+        plot_sweep(run.summary, os.path.join(args.out, "sweep.png"))
     if args.json:
         print(json.dumps(_json_safe(run.summary)))
     else:
-        print(summary_table(run.summary))
+        print((fleet_table if fleet else summary_table)(run.summary))
         print(
             f"flew {run.ran}, found {run.skipped} done; wrote {args.out}/: "
-            "results.jsonl, summary.json, table.md, sweep.png, failures/"
+            f"results.jsonl, summary.json, table.md, {'' if fleet else 'sweep.png, '}"
+            "failures/"
         )
     for line in run.lost:
         print(f"mfi-drake: not run (rerun to retry): {line}", file=sys.stderr)
@@ -667,6 +682,13 @@ def make_parser() -> argparse.ArgumentParser:
         default="sphere",
         help="the sensor every field is flown with: the paper's sensing sphere "
         "or the depth camera (docs/depth_camera.md)",
+    )
+    sweep.add_argument(
+        "--vehicles",
+        type=int,
+        default=1,
+        help="vehicles per field, ≥ 1, between random start and goal pairs at the "
+        "ends of the box, half each way (1: the single-vehicle sweep)",
     )
     add_motion(sweep, "share of each field's obstacles that move")
     sweep.add_argument(

@@ -203,6 +203,9 @@ class Scenario:
     ground: Ground | None = None  # none: no ground
     # Further vehicles flown at once (docs/dynamic.md).
     other_vehicles: list[OtherVehicle] = field(default_factory=list)
+    # Hz: how often the vehicles of a fleet exchange their positions and
+    # velocities (docs/dynamic.md, "Several vehicles").
+    exchange_hz: float = 10.0
     relative_velocity: RelativeVelocity = field(default_factory=RelativeVelocity)
     navigator: NavigatorParams = field(default_factory=NavigatorParams)
     # The paper's literal MFI (method "mfi-paper"): its own gains, repairs off.
@@ -351,6 +354,7 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
         fail(
             where, "other_vehicles", scenario.other_vehicles, "are flown without faults"
         )
+    _check_positive(where, "exchange_hz", scenario.exchange_hz)
     estimate = scenario.relative_velocity
     _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
     _check_positive(where, "relative_velocity.gate", estimate.gate)

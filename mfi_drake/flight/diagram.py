@@ -5,33 +5,41 @@
         │ pose              │ state                │ state           ▼
     VehicleGeometry ◀── QuadrotorPlant ◀── RotorMixer ◀── AttitudePD ◀┘
 
-VehicleGeometry is there only where something reads the vehicle in
-SceneGraph: cameras, or other vehicles' sensors (`needs_geometry`).
+VehicleGeometry is there only where cameras ride on the vehicle
+(`needs_geometry`).
 Every signal worth reading afterwards goes through one Multiplexer into a
 VectorLogSink that records at every integrator step. The scenario's faults
 (`faults`) are inserted only when turned on; the log keeps the true state.
 
 A dynamic scene (docs/dynamic.md) adds the `ObstacleMotion` source that
-poses the moving obstacles, a navigator that uses the velocity relative to
-each obstacle (`systems.relative`), and each of the `other_vehicles` as a
-closed loop of its own, the same systems with names ending "_k" (k = 1, 2,
-…) and a logger of its own.
+poses the moving obstacles and a navigator that uses the velocity relative
+to each obstacle (`systems.relative`). With `other_vehicles` the diagram is
+still one vehicle's, the scenario's own: the others come in through the
+exported input "other_vehicles", the last message of the fleet's exchange
+(`systems.exchange`), as spheres added to the sphere sensor's readings
+(`OtherVehicleReadings`, which also gives their velocities to the relative
+navigator where nothing else moves) or posed in SceneGraph for cameras
+(`OtherVehicleSpheres`). A fleet flies one such diagram per vehicle
+(`vehicle_scenarios`, `simulation.fly_fleet`).
 """
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 from pydrake.examples import QuadrotorPlant
 from pydrake.geometry import SceneGraph
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
 
+from mfi_drake.config.dynamic import OtherVehicle
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Cameras, Scenario, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES, Vehicle
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
+from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.camera import add_depth_cameras
 from mfi_drake.systems.control import AttitudePD, RotorMixer
+from mfi_drake.systems.exchange import OtherVehicleReadings, OtherVehicleSpheres
 from mfi_drake.systems.faults import (
     add_rotor_faults,
     add_sensor_faults,
@@ -39,10 +47,10 @@ from mfi_drake.systems.faults import (
 )
 from mfi_drake.systems.motion import ObstacleMotion
 from mfi_drake.systems.navigation import ObstacleNavigator
-from mfi_drake.systems.relative import relative_navigator
+from mfi_drake.systems.relative import RelativeNavigator, relative_navigator
 from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
 from mfi_drake.systems.sensors import VehicleGeometry
-from mfi_drake.world.motion import is_dynamic
+from mfi_drake.world.motion import is_dynamic, obstacles_move
 from mfi_drake.world.obstacles import register_obstacles
 
 # What the log holds, in order: (name, size, source system, its output port).
@@ -60,16 +68,6 @@ LOG_LAYOUT: list[tuple[str, int, str, str]] = [
 
 
 @dataclass
-class VehicleLoop:
-    """One vehicle's closed loop in a flight's diagram."""
-
-    scenario: Scenario  # the flight's, with this vehicle's start and goal
-    plant: QuadrotorPlant
-    sensor: object  # the system whose "obstacle" port the navigator reads
-    logger: VectorLogSink
-
-
-@dataclass
 class FlightDiagram:
     """The built diagram and the handles a simulation needs."""
 
@@ -81,7 +79,6 @@ class FlightDiagram:
     scene_graph: SceneGraph
     logger: VectorLogSink
     sensor: object  # the system whose "obstacle" port the navigator reads
-    others: list[VehicleLoop] = field(default_factory=list)  # other_vehicles
 
     def log_slices(self) -> dict[str, slice]:
         slices, start = {}, 0
@@ -107,35 +104,52 @@ def add_sensor(
     scene_graph: SceneGraph,
     plant: QuadrotorPlant,
     geometry: VehicleGeometry | None,
-    suffix: str = "",
 ):
-    """Adds the scenario's sensor, named "sensor" + suffix, whose output port
+    """Adds the scenario's sensor, named "sensor", whose output port
     "obstacle" carries readings [r_o, seen] (see `maths.layout`). A camera
-    rig's "state" input is left for `build_diagram` to connect. A sphere
-    sensor does not see its own vehicle's collision sphere. `geometry`: the
-    vehicle in SceneGraph (`needs_geometry`), else None."""
+    rig's "state" input is left for `build_diagram` to connect. `geometry`:
+    the vehicle in SceneGraph (`needs_geometry`), else None. With
+    `other_vehicles` the diagram exports the input "other_vehicles"
+    (`systems.exchange`): a sphere sensor's readings go through
+    `OtherVehicleReadings`, which is then the system returned; cameras see
+    `OtherVehicleSpheres`, their near plane beyond the collision radius, as
+    a real depth camera's minimum range."""
+    count = len(scenario.other_vehicles)
+    radius = VEHICLES[scenario.vehicle].collision_radius
     if isinstance(scenario.sensor, Cameras):
+        if count:
+            spheres = builder.AddNamedSystem(
+                "other_vehicles", OtherVehicleSpheres(scene_graph, count, radius)
+            )
+            builder.Connect(
+                spheres.get_output_port(),
+                scene_graph.get_source_pose_port(spheres.source_id),
+            )
+            builder.ExportInput(spheres.get_input_port(), "other_vehicles")
         return add_depth_cameras(
             builder,
             scenario.sensor,
             scene_graph,
             geometry,
-            suffix,
-            geometry.sphere_radius or 0.0,
+            clear_of=radius if count else 0.0,
         )
     if not isinstance(scenario.sensor, SphereSensor):
         raise ValueError(f"sensor = {scenario.sensor!r}: not supported")
     sensor = builder.AddNamedSystem(
-        f"sensor{suffix}",
-        SphereSensorSystem(
-            scenario.sensor.radius,
-            ignored={geometry.sphere_id} - {None} if geometry else set(),
-            moving=is_dynamic(scenario),
-        ),
+        "scene_sensor" if count else "sensor",
+        SphereSensorSystem(scenario.sensor.radius, moving=obstacles_move(scenario)),
     )
     builder.Connect(scene_graph.get_query_output_port(), sensor.GetInputPort("query"))
     builder.Connect(plant.get_output_port(0), sensor.GetInputPort("state"))
-    return sensor
+    if not count:
+        return sensor
+    readings = builder.AddNamedSystem(
+        "sensor", OtherVehicleReadings(count, radius, scenario.sensor.radius)
+    )
+    builder.Connect(sensor.GetOutputPort("obstacle"), readings.GetInputPort("obstacle"))
+    builder.Connect(plant.get_output_port(0), readings.GetInputPort("state"))
+    builder.ExportInput(readings.GetInputPort("other_vehicles"), "other_vehicles")
+    return readings
 
 
 def connect_controller(
@@ -181,9 +195,10 @@ def connect_controller(
 
 
 def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightDiagram:
-    """Builds the closed loop of `scenario` flown by `method` (a registry
-    name, a user field's MODULE:NAME or callable, see `methods`), with one
-    loop per vehicle when the scenario has `other_vehicles`."""
+    """Builds the closed loop of `scenario`'s own vehicle flown by `method`
+    (a registry name, a user field's MODULE:NAME or callable, see
+    `methods`). With `other_vehicles` they are seen where the diagram's
+    input "other_vehicles" puts them (`add_sensor`)."""
     method = resolve_method(method)
     builder = DiagramBuilder()
 
@@ -194,11 +209,8 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
         builder.Connect(
             motion.get_output_port(), scene_graph.get_source_pose_port(frames.source_id)
         )
-    loops = [
-        add_vehicle(builder, scene_graph, flown, method, suffix)
-        for suffix, flown in vehicle_scenarios(scenario)
-    ]
-    sensor = loops[0].sensor
+    vehicle = VEHICLES[scenario.vehicle]
+    plant, sensor, logger = add_vehicle(builder, scene_graph, scenario, method)
     if sensor.HasOutputPort("frames_rendered"):  # a camera counts its frames
         builder.ExportOutput(sensor.GetOutputPort("frames_rendered"), "frames_rendered")
 
@@ -207,23 +219,33 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
     return FlightDiagram(
         diagram=diagram,
         scenario=scenario,
-        vehicle=VEHICLES[scenario.vehicle],
+        vehicle=vehicle,
         method=method.name,
-        plant=loops[0].plant,
+        plant=plant,
         scene_graph=scene_graph,
-        logger=loops[0].logger,
+        logger=logger,
         sensor=sensor,
-        others=loops[1:],
     )
 
 
-def vehicle_scenarios(scenario: Scenario) -> list[tuple[str, Scenario]]:
-    """(name suffix, the scenario with its start and goal) of each vehicle:
-    the scenario's own first ("" : its systems keep their plain names), then
-    each of `other_vehicles` ("_1", "_2", …)."""
-    return [("", scenario)] + [
-        (f"_{k}", replace(scenario, start=list(o.start), goal=list(o.goal)))
-        for k, o in enumerate(scenario.other_vehicles, start=1)
+def vehicle_scenarios(scenario: Scenario) -> list[Scenario]:
+    """One scenario per vehicle of the fleet, the scenario's own first: the
+    vehicle's start and goal, and every other vehicle in `other_vehicles`,
+    in the fleet's order (`systems.exchange.others_of`)."""
+    ends = [(scenario.start, scenario.goal)]
+    ends += [(o.start, o.goal) for o in scenario.other_vehicles]
+    return [
+        replace(
+            scenario,
+            start=list(start),
+            goal=list(goal),
+            other_vehicles=[
+                OtherVehicle(list(s), list(g))
+                for j, (s, g) in enumerate(ends)
+                if j != k
+            ],
+        )
+        for k, (start, goal) in enumerate(ends)
     ]
 
 
@@ -239,6 +261,8 @@ def navigator_of(scenario: Scenario, method: Method, vehicle: Vehicle):
         and estimate.enabled
         and isinstance(navigator, ObstacleNavigator)
     ):
+        if knows_velocities(scenario):
+            return RelativeNavigator(navigator, estimate.own_pace, PACE_BLEND_SPEED)
         # A camera's readings change once a frame: sampled at its frame rate.
         sensor = scenario.sensor
         rate = sensor.rate_hz if isinstance(sensor, Cameras) else estimate.rate_hz
@@ -248,15 +272,26 @@ def navigator_of(scenario: Scenario, method: Method, vehicle: Vehicle):
     return navigator
 
 
+def knows_velocities(scenario: Scenario) -> bool:
+    """Whether every moving thing the sensor reads comes with its velocity:
+    other vehicles seen through `OtherVehicleReadings`, no moving obstacle.
+    The relative navigator then reads those velocities and needs no
+    estimate from the readings."""
+    return (
+        isinstance(scenario.sensor, SphereSensor)
+        and bool(scenario.other_vehicles)
+        and not obstacles_move(scenario)
+    )
+
+
 def needs_geometry(scenario: Scenario) -> bool:
-    """Whether the flight needs its vehicles in SceneGraph: cameras ride on
-    the body frame, and among several vehicles each one's collision sphere
-    is seen by the others. A lone vehicle's sphere sensor reads its position
-    from the state and nothing in the flight draws it (animations replay
-    the log), so it flies without: a Python pose system less, evaluated at
-    every state. (Drake's C++ QuadrotorGeometry would download its mesh
-    package at build time.)"""
-    return isinstance(scenario.sensor, Cameras) or bool(scenario.other_vehicles)
+    """Whether the flight needs its vehicle in SceneGraph: cameras ride on
+    the body frame. A sphere sensor reads its position from the state and
+    nothing in the flight draws it (animations replay the log; other
+    vehicles see it through the exchange), so it flies without: a Python
+    pose system less, evaluated at every state. (Drake's C++
+    QuadrotorGeometry would download its mesh package at build time.)"""
+    return isinstance(scenario.sensor, Cameras)
 
 
 def add_vehicle(
@@ -264,28 +299,17 @@ def add_vehicle(
     scene_graph: SceneGraph,
     scenario: Scenario,
     method: Method,
-    suffix: str = "",
-) -> VehicleLoop:
-    """Adds one vehicle's closed loop, flying `scenario`'s start to its goal;
-    its systems' names end in `suffix`. Among several vehicles, each carries
-    its collision sphere for the others' sensors."""
+) -> tuple[QuadrotorPlant, object, VectorLogSink]:
+    """Adds the vehicle's closed loop, flying `scenario`'s start to its goal;
+    (its plant, its sensor, its logger)."""
     vehicle = VEHICLES[scenario.vehicle]
     params = scenario.navigator
-    plant = builder.AddNamedSystem(f"quadrotor{suffix}", make_plant(vehicle))
+    plant = builder.AddNamedSystem("quadrotor", make_plant(vehicle))
     geometry = None
     if needs_geometry(scenario):
         geometry = builder.AddNamedSystem(
-            f"vehicle_geometry{suffix}",
-            VehicleGeometry(
-                scene_graph,
-                vehicle.arm_length,
-                vehicle.rotor_radius,
-                sphere_radius=(
-                    vehicle.collision_radius if scenario.other_vehicles else None
-                ),
-                name=f"vehicle{suffix}",
-                perceived=isinstance(scenario.sensor, Cameras),
-            ),
+            "vehicle_geometry",
+            VehicleGeometry(scene_graph, vehicle.arm_length, vehicle.rotor_radius),
         )
         builder.Connect(plant.get_output_port(0), geometry.get_input_port(0))
         builder.Connect(
@@ -293,18 +317,21 @@ def add_vehicle(
             scene_graph.get_source_pose_port(geometry.source_id),
         )
 
-    sensor = add_sensor(builder, scenario, scene_graph, plant, geometry, suffix)
+    sensor = add_sensor(builder, scenario, scene_graph, plant, geometry)
 
     navigator = builder.AddNamedSystem(
-        f"navigator{suffix}", navigator_of(scenario, method, vehicle)
+        "navigator", navigator_of(scenario, method, vehicle)
     )
     selector = builder.AddNamedSystem(
-        f"selector{suffix}", method.goal_attraction(scenario, vehicle)
+        "selector", method.goal_attraction(scenario, vehicle)
     )
-    attitude = builder.AddNamedSystem(
-        f"attitude_pd{suffix}", AttitudePD(vehicle, params)
-    )
-    mixer = builder.AddNamedSystem(f"mixer{suffix}", RotorMixer(vehicle))
+    attitude = builder.AddNamedSystem("attitude_pd", AttitudePD(vehicle, params))
+    mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
+    if navigator.HasInputPort("obstacle_velocity"):  # `knows_velocities`
+        builder.Connect(
+            sensor.GetOutputPort("obstacle_velocity"),
+            navigator.GetInputPort("obstacle_velocity"),
+        )
     estimate = connect_controller(
         builder,
         plant,
@@ -320,7 +347,7 @@ def add_vehicle(
         builder.Connect(estimate, sensor.GetInputPort("state"))
 
     mux = builder.AddNamedSystem(
-        f"log_mux{suffix}", Multiplexer([size for _, size, _, _ in LOG_LAYOUT])
+        "log_mux", Multiplexer([size for _, size, _, _ in LOG_LAYOUT])
     )
     systems = {
         "quadrotor": plant,
@@ -340,5 +367,5 @@ def add_vehicle(
         builder.Connect(port, mux.get_input_port(i))
     # publish_period 0: the sink records once per integrator step.
     logger = LogVectorOutput(mux.get_output_port(0), builder, publish_period=0.0)
-    logger.set_name(f"logger{suffix}")
-    return VehicleLoop(scenario, plant, sensor, logger)
+    logger.set_name("logger")
+    return plant, sensor, logger

@@ -1,6 +1,8 @@
 """Flying a scenario: `simulate` runs the diagram and returns a `Flight`
 (the log, arrays by name) with its metrics; `outcome` is the one place that
-says what a flight's result was."""
+says what a flight's result was. A scenario with `other_vehicles` is flown
+as a fleet (`fly_fleet`): one diagram and Simulator per vehicle, exchanging
+positions at `exchange_hz`."""
 
 import math
 import time
@@ -13,7 +15,7 @@ from pydrake.systems.framework import EventStatus
 
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Cameras, Scenario, SphereSensor
-from mfi_drake.flight.diagram import FlightDiagram, build_diagram
+from mfi_drake.flight.diagram import FlightDiagram, build_diagram, vehicle_scenarios
 from mfi_drake.flight.methods import Method
 from mfi_drake.maths.layout import (
     ANGULAR_RATE,
@@ -23,7 +25,7 @@ from mfi_drake.maths.layout import (
     VELOCITY,
     readings,
 )
-from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
+from mfi_drake.systems.exchange import message
 from mfi_drake.world.motion import is_dynamic
 from mfi_drake.world.obstacles import obstacle_distances
 
@@ -34,6 +36,7 @@ WITNESS_SCALE = 0.01  # Drake's witness isolation window over the context's accu
 # so that rounding (|r_o| = |d| |∇d|) cannot end a flight the metrics, which
 # read d itself, would not call collided.
 CONTACT_MARGIN = 1e-9
+RESTING = EventStatus.Severity.kReachedTermination  # what settled_monitor says
 
 
 @dataclass
@@ -52,7 +55,8 @@ class Flight:
     derivative_evaluations: int = 0  # its time-derivative evaluations
     frames_rendered: int | None = None  # depth-camera frames (None: no camera)
     metrics: dict = field(default_factory=dict)
-    # The scenario's other_vehicles, flown at once: one Flight each.
+    # The scenario's other_vehicles, flown at once: one Flight each (wall
+    # and CPU times are the whole fleet's).
     others: list["Flight"] = field(default_factory=list)
 
     @property
@@ -71,7 +75,11 @@ def simulate(
 
     `method`: "mfi", "apf", "gf" (`methods.METHODS`), a user's navigation
     field as "MODULE:NAME" or as the function itself (see `methods`).
-    `until_settled`, `stop_at_contact`: see `fly`."""
+    `until_settled`, `stop_at_contact`: see `fly`. With `other_vehicles`,
+    every vehicle is flown (`fly_fleet`)."""
+    if scenario.other_vehicles:
+        fleet = [build_diagram(flown, method) for flown in vehicle_scenarios(scenario)]
+        return fly_fleet(fleet, until_settled, stop_at_contact)
     return fly(build_diagram(scenario, method), until_settled, stop_at_contact)
 
 
@@ -98,22 +106,30 @@ VEHICLE_KEYS += ("final_error", "convergence_time")
 def several_vehicles(flight: Flight, metrics: dict) -> dict:
     """What a flight of several vehicles adds to the first one's `metrics`:
     `vehicles` (each one's VEHICLE_KEYS, the first included),
-    `min_separation` (the least distance between two vehicles' centres
-    minus their two collision radii, over the logged times) and `success`,
-    true only when every vehicle succeeded and min_separation > 0."""
+    `min_separation` (`least_separation`) and `success`, true only when
+    every vehicle succeeded and min_separation > 0."""
     everyone = [metrics] + [other.metrics for other in flight.others]
-    positions = np.stack([flight.positions] + [o.positions for o in flight.others])
-    gaps = [
-        np.linalg.norm(positions[i] - positions[j], axis=1).min()
-        for i in range(len(positions))
-        for j in range(i + 1, len(positions))
-    ]
-    separation = float(min(gaps)) - 2.0 * flight.collision_radius
+    separation = least_separation([flight, *flight.others])
     return {
         "vehicles": [{k: m[k] for k in VEHICLE_KEYS} for m in everyone],
         "min_separation": separation,
         "success": all(m["success"] for m in everyone) and separation > 0.0,
     }
+
+
+def least_separation(flights: list[Flight]) -> float:
+    """The least distance between two vehicles' centres minus their two
+    collision radii. Each vehicle logs at its own integrator's steps: a
+    pair is compared at every logged time of either, the other's position
+    interpolated linearly between its logged steps."""
+    gaps = [np.inf]
+    for i, first in enumerate(flights):
+        for second in flights[i + 1 :]:
+            for a, b in ((first, second), (second, first)):
+                p = [np.interp(a.times, b.times, b.positions[:, d]) for d in range(3)]
+                gap = np.linalg.norm(a.positions - np.column_stack(p), axis=1)
+                gaps.append(gap.min())
+    return float(min(gaps)) - 2.0 * flights[0].collision_radius
 
 
 def simulator_at_start(diagram, plant, scenario: Scenario) -> Simulator:
@@ -209,20 +225,22 @@ def contact_monitor(flight: FlightDiagram):
     is one the metrics call collided. (A vehicle pressed against an obstacle
     by eq 15's r⁻³ force, up to 1e9 N at contact, chatters along it at 10⁵
     steps: minutes of a sweep for a known outcome.) Read before any sensor
-    fault, for sphere sensors only: a camera's reading is a percept."""
+    fault, for sphere sensors only: a camera's reading is a percept. Among
+    several vehicles it reads the scene alone (the input of
+    `OtherVehicleReadings`): the others' spheres there are extrapolated,
+    and `fly_fleet` judges their contacts from the exchanged true states."""
     radius = flight.vehicle.collision_radius
-    sensors = [flight.sensor] + [other.sensor for other in flight.others]
-    ports = [
-        (sensor, sensor.GetOutputPort("obstacle"))
-        for sensor in sensors
-        if isinstance(sensor, SphereSensorSystem)
-    ]
+    sensor = flight.sensor
+    port = sensor.GetOutputPort("obstacle")
+    if flight.scenario.other_vehicles:
+        port = sensor.GetInputPort("obstacle")
+    if not isinstance(flight.scenario.sensor, SphereSensor):
+        return lambda context: EventStatus.Succeeded()
 
     def monitor(context) -> EventStatus:
-        for sensor, port in ports:
-            for r_o, seen in readings(port.Eval(sensor.GetMyContextFromRoot(context))):
-                if seen > 0.5 and math.hypot(*r_o) < radius - CONTACT_MARGIN:
-                    return EventStatus.ReachedTermination(sensor, "in contact")
+        for r_o, seen in readings(port.Eval(sensor.GetMyContextFromRoot(context))):
+            if seen > 0.5 and math.hypot(*r_o) < radius - CONTACT_MARGIN:
+                return EventStatus.ReachedTermination(sensor, "in contact")
         return EventStatus.Succeeded()
 
     return monitor
@@ -241,13 +259,11 @@ def _first_of(monitors):
     return monitor
 
 
-def fly(
+def start_simulator(
     flight: FlightDiagram, until_settled: bool = False, stop_at_contact: bool = False
-) -> Flight:
-    """Simulates an already built diagram from the scenario's start at rest.
-    `until_settled`: end the flight once the vehicle rests at its goal
-    (`settled_monitor`), where the scenario `settles`. `stop_at_contact`:
-    end it when a sphere sensor reads contact (`contact_monitor`)."""
+) -> Simulator:
+    """A Simulator of the diagram from the scenario's start at rest, with
+    the monitors of `fly`."""
     scenario = flight.scenario
     simulator = simulator_at_start(flight.diagram, flight.plant, scenario)
     monitors = []
@@ -257,40 +273,132 @@ def fly(
         monitors.append(contact_monitor(flight))
     if monitors:
         simulator.set_monitor(_first_of(monitors))
-    context = simulator.get_mutable_context()
-    for other in flight.others:
-        place_at_start(other.plant, context, other.scenario.start)
-    wall_time, cpu_time = run_timed(simulator, scenario.duration)
+    return simulator
+
+
+def fly(
+    flight: FlightDiagram, until_settled: bool = False, stop_at_contact: bool = False
+) -> Flight:
+    """Simulates an already built diagram from the scenario's start at rest.
+    `until_settled`: end the flight once the vehicle rests at its goal
+    (`settled_monitor`), where the scenario `settles`. `stop_at_contact`:
+    end it when a sphere sensor reads contact (`contact_monitor`)."""
+    simulator = start_simulator(flight, until_settled, stop_at_contact)
+    wall_time, cpu_time = run_timed(simulator, flight.scenario.duration)
+    result = logged(flight, simulator, wall_time, cpu_time)
+    result.metrics = flight_metrics(result)
+    return result
+
+
+def fly_fleet(
+    fleet: list[FlightDiagram],
+    until_settled: bool = False,
+    stop_at_contact: bool = False,
+) -> Flight:
+    """Flies a fleet: `fleet` holds one diagram per vehicle
+    (`diagram.vehicle_scenarios`, the scenario's own vehicle first), each
+    with its own Simulator and error control. Every h = 1/exchange_hz s of
+    simulated time every vehicle is advanced to that time, then the
+    vehicles exchange their positions and velocities: each one's input
+    "other_vehicles" is fixed to the others' (`systems.exchange.message`),
+    from which it extrapolates them linearly until the
+    next exchange. Returns the first vehicle's Flight with the others in
+    `others`. `stop_at_contact`: the fleet ends at the exchange after a
+    vehicle's sphere sensor reads contact with the scene, or at an exchange
+    where two vehicles' centres are closer than their two collision radii.
+    `until_settled`: it ends once
+    every vehicle has been at rest at its goal (`settled_monitor`, checked
+    at the exchanges) for SETTLE_HOLD, where nothing but the vehicles moves
+    (`settles` without the other vehicles)."""
+    scenario = fleet[0].scenario
+    simulators = [start_simulator(flight, False, stop_at_contact) for flight in fleet]
+    contexts = [simulator.get_mutable_context() for simulator in simulators]
+    ports = [flight.diagram.GetInputPort("other_vehicles") for flight in fleet]
+    quiet = until_settled and settles(replace(scenario, other_vehicles=[]))
+    settled = [
+        (settled_monitor(flight), context)
+        for flight, context in zip(fleet, contexts, strict=True)
+        if quiet
+    ]
+
+    radius = fleet[0].vehicle.collision_radius
+
+    def exchange() -> bool:
+        """Sends every vehicle its message; whether two vehicles touch."""
+        states = np.array(
+            [
+                flight.plant.GetMyContextFromRoot(context)
+                .get_continuous_state_vector()
+                .CopyToVector()
+                for flight, context in zip(fleet, contexts, strict=True)
+            ]
+        )
+        t = contexts[0].get_time()
+        for k, (port, context) in enumerate(zip(ports, contexts, strict=True)):
+            port.FixValue(
+                context, message(t, states[:, POSITION], states[:, VELOCITY], k)
+            )
+        p = states[:, POSITION]
+        gaps = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=2)
+        return bool((gaps[np.triu_indices(len(p), 1)] < 2.0 * radius).any())
+
+    start, start_cpu = time.perf_counter(), time.process_time()
+    exchange()
+    for simulator in simulators:
+        simulator.Initialize()
+    t, k = 0.0, 0
+    while t < scenario.duration:
+        k += 1
+        t = min(k / scenario.exchange_hz, scenario.duration)
+        for simulator in simulators:
+            simulator.AdvanceTo(t)
+        if any(context.get_time() < t for context in contexts):
+            break  # a contact monitor ended its vehicle's flight
+        if exchange() and stop_at_contact:
+            break
+        # Every monitor sees every exchange: each counts its own hold.
+        resting = [monitor(context).severity() for monitor, context in settled]
+        if settled and all(r == RESTING for r in resting):
+            break
+    wall_time = time.perf_counter() - start
+    cpu_time = time.process_time() - start_cpu
+    flights = [
+        logged(flight, simulator, wall_time, cpu_time)
+        for flight, simulator in zip(fleet, simulators, strict=True)
+    ]
+    for other in flights[1:]:
+        other.metrics = flight_metrics(other)
+    result = flights[0]
+    result.others = flights[1:]
+    result.metrics = flight_metrics(result)
+    return result
+
+
+def logged(
+    flight: FlightDiagram, simulator: Simulator, wall_time: float, cpu_time: float
+) -> Flight:
+    """The Flight of a flown diagram (its metrics left to the caller)."""
+    context = simulator.get_context()
     integrator = simulator.get_integrator()
-    depth = isinstance(scenario.sensor, Cameras)
     frames = None
     if flight.diagram.HasOutputPort("frames_rendered"):
         port = flight.diagram.GetOutputPort("frames_rendered")
         frames = int(port.Eval(context)[0])
-
-    def logged(flown: Scenario, logger) -> Flight:
-        log = logger.FindLog(context)
-        data = log.data().T
-        return Flight(
-            scenario=flown,
-            method=flight.method,
-            sensor="depth" if depth else "sphere",
-            collision_radius=flight.vehicle.collision_radius,
-            times=log.sample_times().copy(),
-            log={name: data[:, s] for name, s in flight.log_slices().items()},
-            wall_time=wall_time,
-            cpu_time=cpu_time,
-            integrator_steps=integrator.get_num_steps_taken(),
-            derivative_evaluations=integrator.get_num_derivative_evaluations(),
-        )
-
-    result = logged(scenario, flight.logger)
-    result.frames_rendered = frames
-    for other in flight.others:
-        result.others.append(logged(other.scenario, other.logger))
-        result.others[-1].metrics = flight_metrics(result.others[-1])
-    result.metrics = flight_metrics(result)
-    return result
+    log = flight.logger.FindLog(context)
+    data = log.data().T
+    return Flight(
+        scenario=flight.scenario,
+        method=flight.method,
+        sensor="depth" if isinstance(flight.scenario.sensor, Cameras) else "sphere",
+        collision_radius=flight.vehicle.collision_radius,
+        times=log.sample_times().copy(),
+        log={name: data[:, s] for name, s in flight.log_slices().items()},
+        wall_time=wall_time,
+        cpu_time=cpu_time,
+        integrator_steps=integrator.get_num_steps_taken(),
+        derivative_evaluations=integrator.get_num_derivative_evaluations(),
+        frames_rendered=frames,
+    )
 
 
 def flight_metrics(flight: Flight) -> dict:

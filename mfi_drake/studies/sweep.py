@@ -619,17 +619,34 @@ def motion_variant(share: float, speed: float) -> str:
     return f"moving={share:g},obstacle_speed={speed:g}" if share > 0.0 else ""
 
 
+class Tasks(NamedTuple):
+    """What a sweep flies and how it sums up: `make_field(config, density,
+    index)`, the task `reference(yaml)` and its record keys, the task
+    `fly(yaml, method, reference)`, `summarize(config, records)` and
+    `table(summary)`. A sweep of several vehicles has its own
+    (`studies.fleet_sweep`)."""
+
+    make_field: Callable
+    reference: Callable
+    reference_keys: tuple[str, ...]
+    fly: Callable
+    summarize: Callable
+    table: Callable
+
+
 def run_sweep(
     config: SweepConfig,
     client,
     modify: Callable[[Scenario], Scenario] | None = None,
     progress_stream=sys.stderr,
+    tasks: "Tasks | None" = None,
 ) -> SweepRun:
     """Flies every flight of `config` not yet in DIR/results.jsonl on the
     Dask `client`, then writes DIR/summary.json and DIR/table.md (the
     command draws DIR/sweep.png from the summary). Raises ScenarioError if
     the first field cannot be flown (e.g. a sensor the diagram does not
-    support)."""
+    support). `tasks`: default `SINGLE`, one vehicle a field."""
+    kind = tasks or SINGLE
     os.makedirs(config.out, exist_ok=True)
     results_path = os.path.join(config.out, "results.jsonl")
     records = read_results(results_path)
@@ -637,18 +654,15 @@ def run_sweep(
     todo = [k for k in config.flight_keys() if k not in done]
     skipped = len(config.flight_keys()) - len(todo)
     known = {
-        record_key(r).field: {
-            k: r[k] for k in ("reference_length", "straight_length", "blocked_fraction")
-        }
-        for r in records
+        record_key(r).field: {k: r[k] for k in kind.reference_keys} for r in records
     }
     fields: dict[tuple, Scenario] = {}
     texts: dict[tuple, str] = {}  # each field's YAML, written once
-    tasks = []
+    submitted = []
     for key in todo:
         field_key = key.field
         if field_key not in fields:
-            scenario = make_field(config, key.density, key.index)
+            scenario = kind.make_field(config, key.density, key.index)
             if modify is not None:  # its overrides may name mesh files
                 scenario = generator.self_contained(modify(scenario))
             if not fields:
@@ -658,17 +672,17 @@ def run_sweep(
             if field_key not in known:
                 known[field_key] = Task(
                     f"reference-{scenario.name}-{key.sensor}-{key.variant}",
-                    field_reference,
+                    kind.reference,
                     (texts[field_key],),
                 )
         scenario = fields[field_key]
         task = Task(
             f"flight-{key.method}-{scenario.name}-{key.sensor}-{key.variant}",
-            fly_field,
+            kind.fly,
             (texts[field_key], key.method, known[field_key]),
         )
-        tasks.append((key, task))
-    progress = Progress(len(tasks), progress_stream)
+        submitted.append((key, task))
+    progress = Progress(len(submitted), progress_stream)
     with open(results_path, "a") as f:
 
         def on_result(key: FlightKey, result: dict) -> None:
@@ -691,13 +705,23 @@ def run_sweep(
                 )
             progress.step(f"({record['outcome']}: {key.method} {record['scenario']})")
 
-        lost = run_tasks(client, tasks, on_result, config.methods, progress)
-    summary = summarize(config, records)
+        lost = run_tasks(client, submitted, on_result, config.methods, progress)
+    summary = kind.summarize(config, records)
     write_json(os.path.join(config.out, "summary.json"), summary)
-    write_text(os.path.join(config.out, "table.md"), summary_table(summary) + "\n")
+    write_text(os.path.join(config.out, "table.md"), kind.table(summary) + "\n")
     return SweepRun(
         summary=summary, ran=len(todo) - len(lost), skipped=skipped, lost=lost
     )
+
+
+SINGLE = Tasks(
+    make_field,
+    field_reference,
+    ("reference_length", "straight_length", "blocked_fraction"),
+    fly_field,
+    summarize,
+    summary_table,
+)
 
 
 # --- faults flown on every field ------------------------------------------------

@@ -304,7 +304,6 @@ def add_depth_cameras(
     sensor: Cameras,
     scene_graph: SceneGraph,
     geometry: VehicleGeometry,
-    suffix: str = "",
     clear_of: float = 0.0,
 ) -> DepthCameraSensor:
     """Adds the VTK renderer and, per camera of the rig, an RgbdSensor on the
@@ -312,10 +311,8 @@ def add_depth_cameras(
     DepthCameraSensor "sensor"; returns the latter. Its "state" input is
     left for the caller to connect to the controller's state estimate. With
     a gimbal the RgbdSensors ride on the frame of a `GimbalPose` "gimbal"
-    that the sensor points. Names end in `suffix` (one rig per vehicle, one
-    renderer per scene). `clear_of`: the radius of the vehicle's own
-    sphere, which other vehicles' cameras see; each camera's near plane is
-    put beyond it (RenderEngineVtk draws a sphere's inside), as a real
+    that the sensor points. `clear_of`: among several vehicles, their
+    collision radius; each camera's near plane is put beyond it, as a real
     depth camera's minimum range (0.2–0.3 m) would."""
     if not scene_graph.HasRenderer(RENDERER):
         scene_graph.AddRenderer(RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
@@ -323,14 +320,14 @@ def add_depth_cameras(
     gimbal = gimbal_of(sensor)
     p_BG = sensor.position if gimbal else (0.0, 0.0, 0.0)
     perception = builder.AddNamedSystem(
-        f"sensor{suffix}",
+        "sensor",
         DepthCameraSensor(cameras, sensor.rate_hz, sensor.memory_s, gimbal, p_BG),
     )
     mount = geometry.frame_id
     if gimbal is not None:
         pose = builder.AddNamedSystem(
-            f"gimbal{suffix}",
-            GimbalPose(scene_graph, geometry.frame_id, p_BG, f"gimbal{suffix}"),
+            "gimbal",
+            GimbalPose(scene_graph, geometry.frame_id, p_BG, "gimbal"),
         )
         builder.Connect(geometry.get_output_port(0), pose.GetInputPort("body_pose"))
         builder.Connect(
@@ -356,15 +353,13 @@ def add_depth_cameras(
         )
         depth_range = DepthRange(max(MIN_DEPTH, near), camera.image.max_range)
         rgbd = builder.AddNamedSystem(
-            f"rgbd_sensor{suffix}_{i}",
+            f"rgbd_sensor_{i}",
             RgbdSensor(mount, camera.X_MC, DepthRenderCamera(core, depth_range)),
         )
         builder.Connect(
             scene_graph.get_query_output_port(), rgbd.query_object_input_port()
         )
-        cloud = builder.AddNamedSystem(
-            f"point_cloud{suffix}_{i}", DepthImageToPointCloud(info)
-        )
+        cloud = builder.AddNamedSystem(f"point_cloud_{i}", DepthImageToPointCloud(info))
         depth = rgbd.depth_image_32F_output_port()
         builder.Connect(depth, cloud.depth_image_input_port())
         builder.Connect(depth, perception.GetInputPort(f"depth_image_{i}"))

@@ -208,7 +208,12 @@ class RelativeNavigator(LeafSystem):
 
     def _forces_of(self, x, obstacle, u):
         force, terms = np.zeros(3), np.zeros(6)
-        for i in range(OBSTACLE_COUNT):
+        # An unseen reading's terms are zero (`fields.superposed`), and with
+        # nothing seen so is the own field: skipped, as superposed skips them.
+        seen = [i for i, (_, s) in enumerate(readings(obstacle)) if s > 0.5]
+        if not seen:
+            return force, terms
+        for i in seen:
             F_i, terms_i = self._terms(_relative(x, u, i), _alone(obstacle, i))
             force, terms = force + F_i, terms + terms_i
         if not self._own_pace:
@@ -234,8 +239,8 @@ def _relative(x: np.ndarray, u: np.ndarray, i: int) -> np.ndarray:
 
 
 def _alone(obstacle: np.ndarray, i: int) -> np.ndarray:
-    r_o, seen = readings(obstacle)[i]
-    return obstacle_signal([r_o] if seen > 0.5 else [])
+    """The signal of seen reading i alone."""
+    return obstacle_signal([readings(obstacle)[i][0]])
 
 
 def relative_navigator(

@@ -12,14 +12,11 @@ from pydrake.geometry import (
     GeometryFrame,
     GeometryInstance,
     IllustrationProperties,
-    ProximityProperties,
     QueryObject,
-    RenderLabel,
     Rgba,
     Role,
     SceneGraph,
 )
-from pydrake.geometry import Sphere as DrakeSphere
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.framework import LeafSystem
 
@@ -29,7 +26,7 @@ from mfi_drake.maths.layout import (
     STATE_SIZE,
     readings,
 )
-from mfi_drake.world.obstacles import nearest_obstacles, sensed
+from mfi_drake.world.obstacles import nearest_obstacles
 
 VEHICLE_RGBA = Rgba(0.1, 0.3, 0.8, 1.0)
 SLACK = 1e-3  # [m] added to a shortened reach, for the distances' rounding
@@ -51,16 +48,13 @@ class SphereSensor(LeafSystem):
     "query": SceneGraph's QueryObject; "state": the plant's 12-vector;
     "obstacle": OBSTACLE_COUNT readings [r_o, seen], nearest first.
 
-    `ignored`: geometries it does not see (its vehicle's own collision
-    sphere, among several vehicles); `moving`: whether proximity geometry
-    moves (obstacles with a motion, other vehicles), which turns off the
-    memo of the last reading.
+    `moving`: whether proximity geometry moves (obstacles with a motion,
+    other vehicles), which turns off the memo of the last reading.
     """
 
-    def __init__(self, radius: float, ignored=frozenset(), moving: bool = False):
+    def __init__(self, radius: float, moving: bool = False):
         super().__init__()
         self._radius = float(radius)
-        self._ignored = frozenset(ignored)
         self._moving = bool(moving)
         # (position bytes, geometry version, reading, position), see _calc
         self._last = (None, None, None, None)
@@ -79,9 +73,7 @@ class SphereSensor(LeafSystem):
         p = self._state.Eval(context)[POSITION]
         query = self._query.Eval(context)
         if self._moving:
-            output.SetFromVector(
-                nearest_obstacles(query, p, self._radius, self._ignored)
-            )
+            output.SetFromVector(nearest_obstacles(query, p, self._radius))
             return
         # The obstacles are anchored, so the reading depends on p and on the
         # proximity geometry, which only changes with its version; the
@@ -124,13 +116,9 @@ class VehicleGeometry(LeafSystem):
         - geometry_pose
 
     The shapes carry only the illustration role: the vehicle is drawn, but
-    neither the sphere sensor nor a camera can see it. With `sphere_radius`
-    (among several vehicles) its collision sphere is registered too, with
-    the proximity role: the other vehicles' sphere sensors see it
-    (`sphere_id`; its own sensor ignores it); with `perceived` also the
-    perception role, for their cameras (its own cameras clip it: their
-    near plane lies beyond it). `name`: its SceneGraph source's, one per
-    vehicle.
+    neither the sphere sensor nor a camera can see it (the other vehicles
+    of a fleet see it as a sphere of their own diagram,
+    `systems.exchange`). `name`: its SceneGraph source's.
     """
 
     def __init__(
@@ -139,9 +127,7 @@ class VehicleGeometry(LeafSystem):
         arm_length: float,
         rotor_radius: float,
         rgba: Rgba = VEHICLE_RGBA,
-        sphere_radius: float | None = None,
         name: str = "vehicle",
-        perceived: bool = False,
     ):
         super().__init__()
         self._source = scene_graph.RegisterSource(name)
@@ -168,19 +154,6 @@ class VehicleGeometry(LeafSystem):
             illustration.AddProperty("phong", "diffuse", rgba)
             instance.set_illustration_properties(illustration)
             scene_graph.RegisterGeometry(self._source, self.frame_id, instance)
-        self.sphere_id = None
-        self.sphere_radius = sphere_radius
-        if sphere_radius is not None:
-            sphere = GeometryInstance(
-                RigidTransform(), DrakeSphere(sphere_radius), "collision_sphere"
-            )
-            if perceived:
-                sensed(sphere, rgba, RenderLabel.kDontCare)
-            else:
-                sphere.set_proximity_properties(ProximityProperties())
-            self.sphere_id = scene_graph.RegisterGeometry(
-                self._source, self.frame_id, sphere
-            )
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self.DeclareAbstractOutputPort(
             "geometry_pose",

@@ -37,9 +37,12 @@ def obstacle_pose(obstacle: sc.Obstacle, t: float = 0.0) -> RigidTransform:
 def is_dynamic(scenario: sc.Scenario) -> bool:
     """Whether anything but the vehicle moves: an obstacle with a motion, or
     another vehicle."""
-    return bool(scenario.other_vehicles) or any(
-        moves(o.motion) for o in scenario.obstacles
-    )
+    return bool(scenario.other_vehicles) or obstacles_move(scenario)
+
+
+def obstacles_move(scenario: sc.Scenario) -> bool:
+    """Whether an obstacle has a motion."""
+    return any(moves(o.motion) for o in scenario.obstacles)
 
 
 @dataclass

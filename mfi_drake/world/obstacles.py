@@ -104,20 +104,15 @@ def sensed(instance: GeometryInstance, rgba: Rgba, label: RenderLabel) -> None:
     instance.set_perception_properties(perception)
 
 
-def nearest_obstacles(
-    query_object, p: np.ndarray, threshold: float, ignored=frozenset()
-) -> np.ndarray:
+def nearest_obstacles(query_object, p: np.ndarray, threshold: float) -> np.ndarray:
     """The "obstacle" signal: the closest point of each of the
-    OBSTACLE_COUNT proximity geometries nearest to p within `threshold`,
-    but for the geometries of `ignored` (a vehicle's own collision sphere).
+    OBSTACLE_COUNT proximity geometries nearest to p within `threshold`.
 
     Uses SceneGraph's ComputeSignedDistanceToPoint: the closest point is
     p − d ∇d (∇d is the outward gradient), so r_o = −d ∇d. Only obstacles,
     the ground and other vehicles' spheres carry the proximity role.
     """
     results = query_object.ComputeSignedDistanceToPoint(p, threshold)
-    if ignored:
-        results = [r for r in results if r.id_G not in ignored]
     nearest = sorted(results, key=lambda r: r.distance)[:OBSTACLE_COUNT]
     return obstacle_signal([-r.distance * r.grad_W for r in nearest])
 

@@ -1,13 +1,21 @@
 """Loading a scenario that can be flown: `config.scenario`'s checks plus the
 geometric ones (readable convex meshes; every vehicle's start and goal in
 free space with room for the vehicle, above the ground, and apart from the
-other vehicles')."""
+other vehicles').
 
+Moving obstacles are judged where they are when it matters: a start must be
+clear of every obstacle at t = 0; a goal is refused where a static obstacle
+covers it, or a moving one covers it for the whole flight; a moving
+obstacle over a goal at t = 0 that moves away gives a `ScenarioWarning`."""
+
+import dataclasses
 import os
+import warnings
 
 import numpy as np
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.config.dynamic import moves
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.shapes import convex_points, mesh_file
@@ -26,6 +34,13 @@ def least_goal_gap(vehicle: str = "drake_default") -> float:
     """The least distance [m] from a goal to a surface that the loader accepts
     for `vehicle`: its collision radius plus GOAL_MARGIN."""
     return VEHICLES[vehicle].collision_radius + GOAL_MARGIN
+
+
+GOAL_SAMPLES = 200  # times over the flight at which a moving obstacle is judged
+
+
+class ScenarioWarning(UserWarning):
+    """A scenario that can be flown but may not be what was meant."""
 
 
 def _check_mesh(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
@@ -59,11 +74,17 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
     if scenario.ground is not None:
         for name, point in ends:
             _check_above_ground(where, name, point, scenario.ground.height, radius)
+    static = dataclasses.replace(
+        scenario, obstacles=[o for o in scenario.obstacles if not moves(o.motion)]
+    )
     try:
-        distances = obstacle_distances(scenario, [point for _, point in ends])
+        # Starts against every obstacle at t = 0, goals against the static ones.
+        distances = obstacle_distances(scenario, [p for n, p in ends if "start" in n])
+        distances += obstacle_distances(static, [p for n, p in ends if "goal" in n])
     except RuntimeError as e:  # a mesh Drake cannot use
         raise sc.ScenarioError(f"{where}: obstacles: {str(e).splitlines()[0]}") from e
-    for (name, point), d in zip(ends, distances, strict=True):
+    ordered = [e for e in ends if "start" in e[0]] + [e for e in ends if "goal" in e[0]]
+    for (name, point), d in zip(ordered, distances, strict=True):
         needed, words = _room(name, radius, d)
         if d < needed - ROUNDING:
             sc.fail(
@@ -72,6 +93,10 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
                 point,
                 f"is {d:.3f} m from an obstacle, closer than {words}",
             )
+    if len(static.obstacles) < len(scenario.obstacles):
+        for name, point in ends:
+            if "goal" in name:
+                _check_goal_uncovered(where, scenario, name, point, radius)
     _check_apart(where, scenario, radius)
 
 
@@ -86,6 +111,33 @@ def _room(name: str, radius: float, distance: float) -> tuple[float, str]:
             f"{distance - radius:.3f} m; docs/goals.md)"
         )
     return radius, words
+
+
+def _check_goal_uncovered(where, scenario, name, point, radius) -> None:
+    """A goal that moving obstacles cover for the whole flight is refused;
+    one they cover at t = 0 only gives a ScenarioWarning."""
+    moving = dataclasses.replace(
+        scenario,
+        obstacles=[o for o in scenario.obstacles if moves(o.motion)],
+        ground=None,
+    )
+    times = np.linspace(0.0, scenario.duration, GOAL_SAMPLES)
+    d = np.array(obstacle_distances(moving, [point] * len(times), times=times))
+    if (d < radius).all():
+        sc.fail(
+            where,
+            name,
+            point,
+            f"is within the collision radius {radius:.3f} m of a moving "
+            f"obstacle throughout the flight",
+        )
+    if d[0] < radius:
+        warnings.warn(
+            f"{where}: {name} = {point!r}: a moving obstacle covers it at t = 0 "
+            f"({d[0]:.3f} m away) and moves off by t = {times[d >= radius][0]:.2f} s",
+            ScenarioWarning,
+            stacklevel=2,
+        )
 
 
 def _check_above_ground(where, name, point, height, radius) -> None:

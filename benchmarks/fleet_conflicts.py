@@ -1,0 +1,63 @@
+"""Symmetric conflicts: N vehicles meeting head-on in the middle of an
+antipodal circle (docs/dynamic.md, "Symmetric conflicts").
+
+    python benchmarks/fleet_conflicts.py [--sizes 2,3,4,8,16,32]
+                                         [--methods mfi,mfi-paper,apf,gf]
+
+Every method flies the same circles (`world.fleets.antipodal_circle`).
+Printed per flight: the outcome, the least separation, deadlocks (vehicles
+short of their goals at the end without contact), and the side each vehicle
+chose: the sign of its angular momentum about the circle's centre, (p × v)_z
+summed over the logged steps while it is within 2 m of the centre: + it
+went round anticlockwise seen from above (the centre on its left: it
+swerved right), − clockwise (it swerved left). A roundabout: every vehicle
+chose the same side.
+"""
+
+import argparse
+
+import numpy as np
+
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.world.fleets import antipodal_circle, circle_radius
+
+MEETING = 2.0  # [m] from the centre: where a vehicle's side is read
+
+
+def side(flight) -> int:
+    """+1 anticlockwise, −1 clockwise, 0 straight through the middle."""
+    p, v = flight.positions, flight.log["state"][:, 6:9]
+    near = np.hypot(p[:, 0], p[:, 1]) < MEETING
+    turn = np.sum(p[near, 0] * v[near, 1] - p[near, 1] * v[near, 0])
+    return int(np.sign(round(turn, 6)))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="2,3,4,8,16,32")
+    parser.add_argument("--methods", default="mfi,mfi-paper,apf,gf")
+    args = parser.parse_args()
+    print(
+        "| N | method | outcome | least separation [m] | deadlocks "
+        "| sides (+ anticlockwise) | roundabout |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for n in [int(k) for k in args.sizes.split(",")]:
+        scene = antipodal_circle(n, duration=5.0 * 2.0 * circle_radius(n))
+        for method in args.methods.split(","):
+            flight = simulate(scene, method)
+            m = flight.metrics
+            contact = m["outcome"] == "collision"
+            deadlocks = 0 if contact else sum(not v["reached"] for v in m["vehicles"])
+            sides = [side(f) for f in (flight, *flight.others)]
+            shown = "".join({1: "+", -1: "−", 0: "0"}[s] for s in sides)
+            roundabout = "yes" if len(set(sides)) == 1 and sides[0] != 0 else "no"
+            print(
+                f"| {n} | {method} | {m['outcome']} | {m['min_separation']:.3f} "
+                f"| {deadlocks} | {shown} | {roundabout} |",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,155 @@
+"""How a fleet's cost grows with its size, and how its outcomes depend on
+the exchange rate (docs/dynamic.md, "Several vehicles").
+
+    python benchmarks/fleet_scaling.py [--sizes 1,2,4,8,16,32]
+                                       [--rates 5,10,20,50] [--figure PATH]
+
+Scaling: for each N, an antipodal circle of N vehicles (`world.fleets`,
+radius `circle_radius(N)`, duration 5 s per metre of diameter) is flown by
+MFI with the default exchange rate, and one vehicle flies the same
+diameter alone (the reference, in the same run). Printed: vehicle-seconds
+per second of process CPU time and of wall time, and the fleet's over the
+reference's (the machine is shared, so the CPU ratio is the one to read).
+
+Rates: the shipped swarms and three random fields of four vehicles (the
+multi-vehicle sweep's, seed 0) flown at each exchange rate; printed:
+outcome, least separation, and each vehicle's path length, with the
+largest difference from the fastest rate's. (A perfectly symmetric circle
+is left out: which way its vehicles break the symmetry is decided by
+rounding, at any rate.)
+"""
+
+import argparse
+import os
+import tempfile
+from dataclasses import replace
+
+import numpy as np
+
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.world import generator
+from mfi_drake.world.fleets import (
+    antipodal_circle,
+    circle_radius,
+    random_pairs,
+    with_vehicles,
+)
+from mfi_drake.world.validation import load_scenario
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SECONDS_PER_METRE = 5.0
+
+
+def circle(n: int):
+    return antipodal_circle(n, duration=SECONDS_PER_METRE * 2.0 * circle_radius(n))
+
+
+def speeds(flight) -> tuple[float, float]:
+    """Vehicle-seconds per CPU second and per wall second."""
+    vehicle_seconds = (1 + len(flight.others)) * flight.metrics["sim_time"]
+    return vehicle_seconds / flight.cpu_time, vehicle_seconds / flight.wall_time
+
+
+def scaling(sizes: list[int]) -> list[dict]:
+    print(
+        "| N | outcome | least separation [m] | vehicle-s per CPU s | per wall s "
+        "| alone: per CPU s | ratio (CPU) | ratio (wall) |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    rows = []
+    for n in sizes:
+        fleet = circle(n)
+        alone = with_vehicles(replace(fleet, name="alone"), [(fleet.start, fleet.goal)])
+        reference, flown = simulate(alone), simulate(fleet)
+        cpu, wall = speeds(flown)
+        cpu_ref, wall_ref = speeds(reference)
+        separation = flown.metrics.get("min_separation")
+        row = {
+            "n": n,
+            "outcome": flown.metrics["outcome"],
+            "cpu": cpu,
+            "wall": wall,
+            "cpu_ref": cpu_ref,
+            "ratio": cpu / cpu_ref,
+            "ratio_wall": wall / wall_ref,
+            "separation": separation,
+        }
+        rows.append(row)
+        sep = "–" if separation is None else f"{separation:.3f}"
+        print(
+            f"| {n} | {row['outcome']} | {sep} | {cpu:.1f} | {wall:.1f} "
+            f"| {cpu_ref:.1f} | {row['ratio']:.2f} | {row['ratio_wall']:.2f} |",
+            flush=True,
+        )
+    return rows
+
+
+def rates(hz: list[float]) -> None:
+    scenes = [
+        load_scenario(os.path.join(ROOT, "scenarios", f"{name}.yaml"))
+        for name in ("swarm_circle", "swarm_corridor")
+    ]
+    with tempfile.TemporaryDirectory() as meshes:
+        scenes += [
+            random_pairs(generator.random_field(0, i, 0.1, meshes), 4, 0, i)
+            for i in range(3)
+        ]
+        print(
+            "\n| scene | rate [Hz] | outcome | least separation [m] "
+            "| path lengths [m] | largest path difference from the fastest [m] |"
+        )
+        print("|---|---|---|---|---|---|")
+        for scene in scenes:
+            flown = {r: simulate(replace(scene, exchange_hz=r)).metrics for r in hz}
+            paths = {
+                r: np.array([v["path_length"] for v in m["vehicles"]])
+                for r, m in flown.items()
+            }
+            for r, m in flown.items():
+                diff = np.abs(paths[r] - paths[max(hz)]).max()
+                listed = ", ".join(f"{p:.2f}" for p in paths[r])
+                print(
+                    f"| {scene.name} | {r:g} | {m['outcome']} "
+                    f"| {m['min_separation']:.3f} | {listed} | {diff:.3f} |",
+                    flush=True,
+                )
+
+
+def figure(rows: list[dict], path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mfi_drake.files import atomic_path
+
+    n = [r["n"] for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    ax.plot(n, [r["cpu"] for r in rows], "o-", label="fleet, per vehicle-s")
+    ax.plot(n, [r["cpu_ref"] for r in rows], "s--", label="one vehicle alone")
+    ax.plot(n, [0.75 * r["cpu_ref"] for r in rows], ":", label="0.75 × alone")
+    ax.set_xscale("log", base=2)
+    ax.set_xlabel("vehicles N (antipodal circle)")
+    ax.set_ylabel("vehicle-seconds per CPU second")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="1,2,4,8,16,32")
+    parser.add_argument("--rates", default="5,10,20,50")
+    parser.add_argument("--figure", default="")
+    args = parser.parse_args()
+    rows = scaling([int(n) for n in args.sizes.split(",") if n])
+    if args.figure:
+        figure(rows, args.figure)
+    if args.rates:
+        rates([float(r) for r in args.rates.split(",")])
+
+
+if __name__ == "__main__":
+    main()
