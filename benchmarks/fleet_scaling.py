@@ -21,7 +21,6 @@ rounding, at any rate.)
 
 import argparse
 import os
-import tempfile
 from dataclasses import replace
 
 import numpy as np
@@ -89,30 +88,28 @@ def rates(hz: list[float]) -> None:
         load_scenario(os.path.join(ROOT, "scenarios", f"{name}.yaml"))
         for name in ("swarm_circle", "swarm_corridor")
     ]
-    with tempfile.TemporaryDirectory() as meshes:
-        scenes += [
-            random_pairs(generator.random_field(0, i, 0.1, meshes), 4, 0, i)
-            for i in range(3)
-        ]
-        print(
-            "\n| scene | rate [Hz] | outcome | least separation [m] "
-            "| path lengths [m] | largest path difference from the fastest [m] |"
-        )
-        print("|---|---|---|---|---|---|")
-        for scene in scenes:
-            flown = {r: simulate(replace(scene, exchange_hz=r)).metrics for r in hz}
-            paths = {
-                r: np.array([v["path_length"] for v in m["vehicles"]])
-                for r, m in flown.items()
-            }
-            for r, m in flown.items():
-                diff = np.abs(paths[r] - paths[max(hz)]).max()
-                listed = ", ".join(f"{p:.2f}" for p in paths[r])
-                print(
-                    f"| {scene.name} | {r:g} | {m['outcome']} "
-                    f"| {m['min_separation']:.3f} | {listed} | {diff:.3f} |",
-                    flush=True,
-                )
+    scenes += [
+        random_pairs(generator.random_field(0, i, 0.1), 4, 0, i) for i in range(3)
+    ]
+    print(
+        "\n| scene | rate [Hz] | outcome | least separation [m] "
+        "| path lengths [m] | largest path difference from the fastest [m] |"
+    )
+    print("|---|---|---|---|---|---|")
+    for scene in scenes:
+        flown = {r: simulate(replace(scene, exchange_hz=r)).metrics for r in hz}
+        paths = {
+            r: np.array([v["path_length"] for v in m["vehicles"]])
+            for r, m in flown.items()
+        }
+        for r, m in flown.items():
+            diff = np.abs(paths[r] - paths[max(hz)]).max()
+            listed = ", ".join(f"{p:.2f}" for p in paths[r])
+            print(
+                f"| {scene.name} | {r:g} | {m['outcome']} "
+                f"| {m['min_separation']:.3f} | {listed} | {diff:.3f} |",
+                flush=True,
+            )
 
 
 def figure(rows: list[dict], path: str) -> None:

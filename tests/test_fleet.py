@@ -101,8 +101,8 @@ def test_generated_scenes_validate_with_starts_and_goals_apart(scene):
         assert min(gaps) >= 1.0
 
 
-def test_random_pairs_are_apart_clear_and_meet_head_on(tmp_path):
-    field = generator.random_field(3, 0, 0.2, str(tmp_path))
+def test_random_pairs_are_apart_clear_and_meet_head_on():
+    field = generator.random_field(3, 0, 0.2)
     scene = random_pairs(field, 6, 3, 0)
     validate_scenario(scene, scene.name)
     ends = [(scene.start, scene.goal)] + [
