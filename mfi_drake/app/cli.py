@@ -243,6 +243,7 @@ def cmd_sweep(args) -> int:
         fleet_variant,
     )
     from mfi_drake.studies.sweep import (
+        SINGLE,
         ClusterError,
         SweepConfig,
         dask_client,
@@ -291,7 +292,7 @@ def cmd_sweep(args) -> int:
     modify = partial(layered, overrides=texts, faults=faults)
     try:
         with dask_client(args.workers, args.scheduler, methods) as client:
-            run = run_sweep(config, client, modify, tasks=FLEET if fleet else None)
+            run = run_sweep(config, client, modify, tasks=FLEET if fleet else SINGLE)
     except KeyboardInterrupt:
         print(
             f"mfi-drake: interrupted; finished flights are in {args.out}/results.jsonl,"

@@ -634,19 +634,29 @@ class Tasks(NamedTuple):
     table: Callable
 
 
+SINGLE = Tasks(
+    make_field,
+    field_reference,
+    ("reference_length", "straight_length", "blocked_fraction"),
+    fly_field,
+    summarize,
+    summary_table,
+)
+
+
 def run_sweep(
     config: SweepConfig,
     client,
     modify: Callable[[Scenario], Scenario] | None = None,
     progress_stream=sys.stderr,
-    tasks: "Tasks | None" = None,
+    tasks: Tasks = SINGLE,
 ) -> SweepRun:
     """Flies every flight of `config` not yet in DIR/results.jsonl on the
     Dask `client`, then writes DIR/summary.json and DIR/table.md (the
     command draws DIR/sweep.png from the summary). Raises ScenarioError if
     the first field cannot be flown (e.g. a sensor the diagram does not
-    support). `tasks`: default `SINGLE`, one vehicle a field."""
-    kind = tasks or SINGLE
+    support). `tasks`: what each field is and how it is flown (`SINGLE`:
+    one vehicle a field)."""
     os.makedirs(config.out, exist_ok=True)
     results_path = os.path.join(config.out, "results.jsonl")
     records = read_results(results_path)
@@ -654,7 +664,7 @@ def run_sweep(
     todo = [k for k in config.flight_keys() if k not in done]
     skipped = len(config.flight_keys()) - len(todo)
     known = {
-        record_key(r).field: {k: r[k] for k in kind.reference_keys} for r in records
+        record_key(r).field: {k: r[k] for k in tasks.reference_keys} for r in records
     }
     fields: dict[tuple, Scenario] = {}
     texts: dict[tuple, str] = {}  # each field's YAML, written once
@@ -662,7 +672,7 @@ def run_sweep(
     for key in todo:
         field_key = key.field
         if field_key not in fields:
-            scenario = kind.make_field(config, key.density, key.index)
+            scenario = tasks.make_field(config, key.density, key.index)
             if modify is not None:  # its overrides may name mesh files
                 scenario = generator.self_contained(modify(scenario))
             if not fields:
@@ -672,13 +682,13 @@ def run_sweep(
             if field_key not in known:
                 known[field_key] = Task(
                     f"reference-{scenario.name}-{key.sensor}-{key.variant}",
-                    kind.reference,
+                    tasks.reference,
                     (texts[field_key],),
                 )
         scenario = fields[field_key]
         task = Task(
             f"flight-{key.method}-{scenario.name}-{key.sensor}-{key.variant}",
-            kind.fly,
+            tasks.fly,
             (texts[field_key], key.method, known[field_key]),
         )
         submitted.append((key, task))
@@ -706,22 +716,12 @@ def run_sweep(
             progress.step(f"({record['outcome']}: {key.method} {record['scenario']})")
 
         lost = run_tasks(client, submitted, on_result, config.methods, progress)
-    summary = kind.summarize(config, records)
+    summary = tasks.summarize(config, records)
     write_json(os.path.join(config.out, "summary.json"), summary)
-    write_text(os.path.join(config.out, "table.md"), kind.table(summary) + "\n")
+    write_text(os.path.join(config.out, "table.md"), tasks.table(summary) + "\n")
     return SweepRun(
         summary=summary, ran=len(todo) - len(lost), skipped=skipped, lost=lost
     )
-
-
-SINGLE = Tasks(
-    make_field,
-    field_reference,
-    ("reference_length", "straight_length", "blocked_fraction"),
-    fly_field,
-    summarize,
-    summary_table,
-)
 
 
 # --- faults flown on every field ------------------------------------------------
