@@ -410,6 +410,11 @@ BAD = [
         "other_vehicles[0].goal",
     ),
     (
+        "rule of the road at 90 degrees",
+        ("ground: {height: 0.0}", "relative_velocity: {keep_right: 90.0}"),
+        "relative_velocity.keep_right = 90.0",
+    ),
+    (
         "other vehicle without goal",
         (", goal: [0.0, 1.0, 1.5]", ""),
         "other_vehicles[0].goal: missing",

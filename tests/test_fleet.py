@@ -15,11 +15,15 @@ from pydrake.math import RigidTransform
 from mfi_drake.app.cli import main
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion, OtherVehicle
+from mfi_drake.config.scenario import scenario_to_yaml
 from mfi_drake.flight.diagram import vehicle_scenarios
 from mfi_drake.flight.simulation import least_separation, simulate
 from mfi_drake.maths.layout import obstacle_signal, readings
+from mfi_drake.maths.motion import turned_right
 from mfi_drake.studies import fleet_sweep, sweep
 from mfi_drake.systems.exchange import extrapolated, merge, message
+from mfi_drake.systems.navigation import MfiNavigator
+from mfi_drake.systems.relative import RelativeNavigator
 from mfi_drake.world import generator
 from mfi_drake.world.fleets import (
     PAIR_GAP,
@@ -48,8 +52,9 @@ def test_merge_reads_a_received_sphere_as_the_hand_computation_and_scene_graph()
     received = message(0.0, [[0, 0, 0], [2, 0, 0]], [[0, 0, 0], [0, 1, 0]], 0)
     wall = [0.0, 0.0, -2.5]  # a nearer-first order: the sphere, then this
     scene = obstacle_signal([wall])
-    signal, u = merge(np.zeros(3), scene, received, 0.5, 0.2, 3.0)
+    signal, u, vehicle = merge(np.zeros(3), scene, received, 0.5, 0.2, 3.0)
     (first, seen_1), (second, seen_2), (_, seen_3) = readings(signal)
+    assert vehicle.tolist() == [1.0, 0.0, 0.0]  # the sphere, not the wall
     gap = math.sqrt(4.25) - 0.2
     n = np.array([2.0, 0.5, 0.0]) / math.sqrt(4.25)
     np.testing.assert_allclose(first, gap * n, atol=1e-12)
@@ -71,8 +76,8 @@ def test_merge_reads_a_received_sphere_as_the_hand_computation_and_scene_graph()
 def test_merge_passes_the_scene_through_when_no_vehicle_is_in_reach():
     received = message(0.0, [[0, 0, 0], [9, 0, 0]], np.zeros((2, 3)), 0)
     scene = obstacle_signal([[1.0, 0.0, 0.0]])
-    signal, u = merge(np.zeros(3), scene, received, 0.0, 0.2, 3.0)
-    assert signal is scene and not u.any()
+    signal, u, vehicle = merge(np.zeros(3), scene, received, 0.0, 0.2, 3.0)
+    assert signal is scene and not u.any() and not vehicle.any()
 
 
 def test_each_vehicle_sees_every_other_in_fleet_order():
@@ -219,6 +224,87 @@ def test_the_exchange_rate_moves_an_offset_meeting_by_little():
         assert a["path_length"] == pytest.approx(b["path_length"], abs=0.05)
 
 
+def test_turned_right_is_the_clockwise_rotation_about_e_z():
+    np.testing.assert_allclose(
+        turned_right([1.0, 0.0, 0.5], 90.0), [0, -1, 0.5], atol=1e-15
+    )
+    w = np.array([0.3, -1.2, 0.7])
+    turned = turned_right(w, 30.0)
+    assert np.linalg.norm(turned) == pytest.approx(np.linalg.norm(w))
+    heading = math.atan2(w[1], w[0]) - math.atan2(turned[1], turned[0])
+    assert heading == pytest.approx(math.radians(30.0))
+
+
+def _navigated(system, x, obstacle, u, vehicle=None):
+    context = system.CreateDefaultContext()
+    for name, value in (("state", x), ("obstacle", obstacle)):
+        system.GetInputPort(name).FixValue(context, value)
+    system.GetInputPort("obstacle_velocity").FixValue(context, u)
+    if vehicle is not None:
+        system.GetInputPort("vehicle_readings").FixValue(context, vehicle)
+    return system.GetOutputPort("obstacle_force").Eval(context)
+
+
+def test_the_rule_of_the_road_turns_only_the_vehicles_relative_velocity():
+    """Second method: each reading's term is the plain navigator's with that
+    reading alone and the state's velocity replaced by v − u, turned right
+    for a vehicle (own pace off, so the terms simply add)."""
+    params = sc.Scenario().navigator
+    goal = [10.0, 0.0, 2.0]
+    plain = MfiNavigator(params, goal, 0.225)
+    ruled = RelativeNavigator(MfiNavigator(params, goal, 0.225), False, 0.3, 40.0)
+    x = np.zeros(12)
+    x[:3], x[6:9] = [1.0, 0.2, 2.0], [0.9, 0.1, 0.05]
+    points = [[0.8, 0.3, 0.0], [0.2, -1.0, 0.1]]
+    u = np.zeros(3 * 3)
+    u[:3] = [-0.5, -0.2, 0.0]
+    vehicle = np.array([1.0, 0.0, 0.0])  # the first reading is a vehicle
+    got = _navigated(ruled, x, obstacle_signal(points), u, vehicle)
+    want = np.zeros(3)
+    for k, point in enumerate(points):
+        y = x.copy()
+        y[6:9] = x[6:9] - u[3 * k : 3 * k + 3]
+        if vehicle[k]:
+            y[6:9] = turned_right(y[6:9], 40.0)
+        want += _navigated_plain(plain, y, obstacle_signal([point]))
+    np.testing.assert_allclose(got, want, atol=1e-12)
+    # The turn acted: without it the vehicle's term differs.
+    unruled = RelativeNavigator(MfiNavigator(params, goal, 0.225), False, 0.3)
+    assert np.abs(_navigated(unruled, x, obstacle_signal(points), u) - got).max() > 0.1
+
+
+def _navigated_plain(system, x, obstacle):
+    context = system.CreateDefaultContext()
+    system.GetInputPort("state").FixValue(context, x)
+    system.GetInputPort("obstacle").FixValue(context, obstacle)
+    return system.GetOutputPort("obstacle_force").Eval(context)
+
+
+def _sides(flown) -> list[float]:
+    """Each vehicle's largest excursion to its right of the start–goal line
+    (positive: it swerved right)."""
+    sides = []
+    for f in [flown, *flown.others]:
+        start, goal = np.asarray(f.scenario.start), np.asarray(f.scenario.goal)
+        line = (goal - start) / np.linalg.norm(goal - start)
+        right = np.cross(line, [0.0, 0.0, 1.0])
+        offsets = (f.positions - start) @ right
+        sides.append(offsets[np.abs(offsets).argmax()])
+    return sides
+
+
+@pytest.mark.parametrize("keep_right, sign", [(30.0, 1.0), (0.0, -1.0)])
+def test_vehicles_meeting_head_on_both_swerve_right_by_the_rule(keep_right, sign):
+    # Without the rule both go left (the head-on tangent's bias e_z × n),
+    # with it both go right: either way one side each, so they pass.
+    scene = _meeting(0.0)
+    rule = dataclasses.replace(scene.relative_velocity, keep_right=keep_right)
+    flown = simulate(dataclasses.replace(scene, relative_velocity=rule))
+    assert flown.metrics["outcome"] == "success"
+    sides = _sides(flown)
+    assert all(sign * side > 0.1 for side in sides), sides
+
+
 # --- the sweep ----------------------------------------------------------------------
 def _short(scenario: sc.Scenario) -> sc.Scenario:
     return dataclasses.replace(scenario, duration=1.0)
@@ -273,3 +359,33 @@ def test_a_fleet_stops_at_the_first_exchange_where_two_vehicles_touch():
 
     touching = 2 * whole.collision_radius
     assert gap(end) < touching <= gap(end - 1.0 / scene.exchange_hz)
+
+
+def test_a_fleet_over_processes_flies_the_same_flights(swap):
+    # Three vehicles over two processes (one in this, two in another): the
+    # same integrators see the same exchanges, so the logs are identical.
+    two = simulate(antipodal_circle(3, radius=3.0, duration=14.0), processes=2)
+    for a, b in zip([swap, *swap.others], [two, *two.others], strict=True):
+        np.testing.assert_array_equal(a.times, b.times)
+        np.testing.assert_array_equal(a.log["state"], b.log["state"])
+        assert scenario_to_yaml(a.scenario) == scenario_to_yaml(b.scenario)
+    assert two.metrics == {
+        **swap.metrics,
+        "wall_time": two.metrics["wall_time"],
+        "realtime_factor": two.metrics["realtime_factor"],
+    }
+
+
+def failing_field(position, velocity, obstacle_points, goal):
+    raise ZeroDivisionError("on purpose")
+
+
+def test_a_field_failing_in_another_process_fails_the_fleet_as_at_home():
+    scene = dataclasses.replace(_meeting(0.4), duration=1.0)
+    here = f"{__name__}:failing_field"
+    errors = []
+    for processes in (1, 2):
+        with pytest.raises(Exception) as caught:
+            simulate(scene, here, processes=processes)
+        errors.append((type(caught.value), str(caught.value)))
+    assert errors[0] == errors[1] and "on purpose" in errors[0][1]

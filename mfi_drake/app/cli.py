@@ -82,10 +82,11 @@ def cmd_run(args) -> int:
     from mfi_drake.app.flight_log import write_flight_log
     from mfi_drake.flight.simulation import simulate
 
+    _at_least("--processes", args.processes, 1)
     method = resolve_method(args.method)
     scenario = scenario_of(args)
     out = args.out or os.path.join("out", scenario.name)
-    flight = simulate(scenario, method)
+    flight = simulate(scenario, method, processes=args.processes)
     write_flight_log(os.path.join(out, "trajectory.npz"), flight)
     plot_flights(scenario, [flight], os.path.join(out, "trajectory.png"))
     if args.html:
@@ -595,6 +596,14 @@ def make_parser() -> argparse.ArgumentParser:
         "--method",
         default="mfi",
         help=f"one of {methods}, or MODULE:NAME of your own field function",
+    )
+    run.add_argument(
+        "--processes",
+        type=int,
+        default=1,
+        help="with other_vehicles: processes the fleet's vehicles are spread "
+        "over, ≥ 1 (the same flights, sooner on several cores; at most one "
+        "per vehicle is used)",
     )
     add_flight_outputs(run, "print the flight's metrics as one JSON object")
     run.set_defaults(func=cmd_run)

@@ -66,3 +66,11 @@ class RelativeVelocity:
     rate_hz: float = 20.0  # readings sampled per second (a camera: its frames)
     time_constant: float = 0.1  # s, of the first-order low pass on the estimate
     gate: float = 0.3  # m, farthest a closest point may move between samples
+    # The rule of the road among vehicles, in degrees: each vehicle's
+    # velocity relative to another vehicle is turned this far to the right
+    # (about e_z) before that vehicle's field term is evaluated, so every
+    # vehicle swerves right of every other, and vehicles meeting in a crowd
+    # circle it the same way (docs/dynamic.md, "Several vehicles"). 0: none.
+    # Obstacles are seen as they are. Sphere sensors only: a camera cannot
+    # tell a vehicle from an obstacle.
+    keep_right: float = 30.0

@@ -361,6 +361,9 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
     tau = estimate.time_constant
     if not _is_number(tau) or not math.isfinite(tau) or tau < 0.0:
         fail(where, "relative_velocity.time_constant", tau, "must be a number ≥ 0")
+    turn = estimate.keep_right
+    if not _is_number(turn) or not 0.0 <= turn < 90.0:
+        fail(where, "relative_velocity.keep_right", turn, "must be in [0, 90) degrees")
 
 
 def check_scenario(scenario: Scenario, where: str) -> None:

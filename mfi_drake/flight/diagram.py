@@ -261,13 +261,20 @@ def navigator_of(scenario: Scenario, method: Method, vehicle: Vehicle):
         and estimate.enabled
         and isinstance(navigator, ObstacleNavigator)
     ):
-        if knows_velocities(scenario):
-            return RelativeNavigator(navigator, estimate.own_pace, PACE_BLEND_SPEED)
-        # A camera's readings change once a frame: sampled at its frame rate.
+        # The rule of the road needs to know which readings are vehicles:
+        # the sphere sensor's `OtherVehicleReadings` says, a camera cannot.
         sensor = scenario.sensor
+        keep_right = 0.0
+        if scenario.other_vehicles and isinstance(sensor, SphereSensor):
+            keep_right = estimate.keep_right
+        if knows_velocities(scenario):
+            return RelativeNavigator(
+                navigator, estimate.own_pace, PACE_BLEND_SPEED, keep_right
+            )
+        # A camera's readings change once a frame: sampled at its frame rate.
         rate = sensor.rate_hz if isinstance(sensor, Cameras) else estimate.rate_hz
         navigator = relative_navigator(
-            lambda: method.navigator(scenario, vehicle), estimate, rate
+            lambda: method.navigator(scenario, vehicle), estimate, rate, keep_right
         )
     return navigator
 
@@ -327,11 +334,10 @@ def add_vehicle(
     )
     attitude = builder.AddNamedSystem("attitude_pd", AttitudePD(vehicle, params))
     mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
-    if navigator.HasInputPort("obstacle_velocity"):  # `knows_velocities`
-        builder.Connect(
-            sensor.GetOutputPort("obstacle_velocity"),
-            navigator.GetInputPort("obstacle_velocity"),
-        )
+    # `knows_velocities`; the rule of the road among vehicles.
+    for name in ("obstacle_velocity", "vehicle_readings"):
+        if navigator.HasInputPort(name):
+            builder.Connect(sensor.GetOutputPort(name), navigator.GetInputPort(name))
     estimate = connect_controller(
         builder,
         plant,

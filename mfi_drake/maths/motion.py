@@ -86,6 +86,14 @@ def along_normal(r_o: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.array([x * along for x in n])
 
 
+def turned_right(w: np.ndarray, degrees: float) -> np.ndarray:
+    """w turned `degrees` clockwise about e_z seen from above (to the right
+    of a vehicle flying along w): the rule of the road of a fleet."""
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    x, y, z = entries(w)
+    return np.array([c * x + s * y, c * y - s * x, z])
+
+
 PACE_BLEND_SPEED = 0.3  # m/s, below which `keep_own_pace` fades to `own`
 
 

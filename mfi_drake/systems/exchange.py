@@ -86,6 +86,7 @@ class OtherVehicleReadings(LeafSystem):
         output_ports:
         - obstacle
         - obstacle_velocity
+        - vehicle_readings
 
     "obstacle" (input): the sphere sensor's readings of the scene without
     the vehicles; "other_vehicles": the last `message`; "obstacle" (output):
@@ -93,7 +94,9 @@ class OtherVehicleReadings(LeafSystem):
     within `sensor_radius` (a sphere's closest point, as SceneGraph gives
     it: r_o = (|d| − ρ) d/|d|, d from the vehicle to the centre);
     "obstacle_velocity": per output reading, its vehicle's velocity along
-    the reading's normal (`maths.motion.along_normal`), zero for the scene's.
+    the reading's normal (`maths.motion.along_normal`), zero for the scene's;
+    "vehicle_readings": per output reading, 1 where it is another vehicle
+    (the relative navigator's rule of the road), else 0.
     """
 
     def __init__(self, count: int, radius: float, sensor_radius: float):
@@ -111,6 +114,7 @@ class OtherVehicleReadings(LeafSystem):
         outputs = (
             ("obstacle", OBSTACLE_SIGNAL_SIZE),
             ("obstacle_velocity", VELOCITY_SIGNAL_SIZE),
+            ("vehicle_readings", OBSTACLE_COUNT),
         )
         for k, (name, size) in enumerate(outputs):
             self.DeclareVectorOutputPort(
@@ -120,8 +124,9 @@ class OtherVehicleReadings(LeafSystem):
                 prerequisites_of_calc=tickets,
             )
 
-    def _merged(self, context) -> tuple[np.ndarray, np.ndarray]:
-        """(the readings, their velocities), computed once for both ports."""
+    def _merged(self, context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(the readings, their velocities, the vehicles among them),
+        computed once for the three ports."""
         p = self._state.Eval(context)[POSITION]
         scene = self._obstacle.Eval(context)
         received = self._message.Eval(context)
@@ -130,13 +135,15 @@ class OtherVehicleReadings(LeafSystem):
         return self._last(key, merge, p, scene, received, t, self._radius, self._reach)
 
 
-def merge(p, scene, received, t, radius, reach) -> tuple[np.ndarray, np.ndarray]:
+def merge(
+    p, scene, received, t, radius, reach
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """`OtherVehicleReadings`' outputs at position p and time t."""
     centres, velocities = extrapolated(received, t)
     d = centres - p
     near = np.flatnonzero(np.einsum("ij,ij->i", d, d) <= (reach + radius) ** 2)
     if not near.size:
-        return scene, NOTHING_MOVES
+        return scene, NOTHING_MOVES, NO_VEHICLE
     found = []  # (distance, r_o, velocity or None)
     signal = scene.tolist()
     for i in range(0, len(signal), READING_SIZE):
@@ -150,13 +157,16 @@ def merge(p, scene, received, t, radius, reach) -> tuple[np.ndarray, np.ndarray]
     found.sort(key=lambda f: f[0])
     found = found[:OBSTACLE_COUNT]
     u = np.zeros((OBSTACLE_COUNT, 3))
+    vehicle = np.zeros(OBSTACLE_COUNT)
     for i, (_, r_o, v) in enumerate(found):
         if v is not None:
             u[i] = along_normal(r_o, v)
-    return obstacle_signal([r_o for _, r_o, _ in found]), u.ravel()
+            vehicle[i] = 1.0
+    return obstacle_signal([r_o for _, r_o, _ in found]), u.ravel(), vehicle
 
 
 NOTHING_MOVES = np.zeros(VELOCITY_SIGNAL_SIZE)
+NO_VEHICLE = np.zeros(OBSTACLE_COUNT)
 
 
 class OtherVehicleSpheres(LeafSystem):

@@ -42,6 +42,7 @@ from mfi_drake.maths.motion import (
     keep_own_pace,
     match_points,
     normal_velocity,
+    turned_right,
 )
 from mfi_drake.systems.last_result import LastResult
 
@@ -169,13 +170,21 @@ class RelativeNavigator(LeafSystem):
     `terms_of` it evaluates; its force must be the sum of its readings'.
     One system rather than a navigator per reading and adders: the same sums
     in the same order, with a fifth of the ports to evaluate.
+
+    `keep_right` > 0 (degrees) adds the input "vehicle_readings" (1 where a
+    reading is another vehicle, `OtherVehicleReadings`) and the rule of the
+    road: a vehicle reading's relative velocity is turned that far right
+    about e_z (`maths.motion.turned_right`) before its term is evaluated.
     """
 
-    def __init__(self, navigator, own_pace: bool, blend_speed: float):
+    def __init__(
+        self, navigator, own_pace: bool, blend_speed: float, keep_right: float = 0.0
+    ):
         super().__init__()
         self._navigator = navigator
         self._own_pace = bool(own_pace)
         self._blend = float(blend_speed)
+        self._keep_right = float(keep_right)
         self._last = LastResult()
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
@@ -184,6 +193,12 @@ class RelativeNavigator(LeafSystem):
         )
         tickets = {port.ticket() for port in (self._state, self._obstacle)}
         tickets.add(self._velocity.ticket())
+        self._vehicles = None
+        if self._keep_right > 0.0:
+            self._vehicles = self.DeclareVectorInputPort(
+                "vehicle_readings", OBSTACLE_COUNT
+            )
+            tickets.add(self._vehicles.ticket())
         for k, (name, size) in enumerate(
             (("obstacle_force", 3), ("obstacle_force_terms", 6))
         ):
@@ -199,14 +214,17 @@ class RelativeNavigator(LeafSystem):
         x = self._state.Eval(context)
         obstacle = self._obstacle.Eval(context)
         u = self._velocity.Eval(context)
-        key = x.tobytes() + obstacle.tobytes() + u.tobytes()
-        return self._last(key, self._forces_of, x, obstacle, u)
+        turns = NO_TURNS
+        if self._vehicles is not None:
+            turns = self._keep_right * self._vehicles.Eval(context)
+        key = x.tobytes() + obstacle.tobytes() + u.tobytes() + turns.tobytes()
+        return self._last(key, self._forces_of, x, obstacle, u, turns)
 
     def _terms(self, x, obstacle):
         A, B, F_o = self._navigator.terms_of(x, obstacle)
         return F_o, np.concatenate([A, B])
 
-    def _forces_of(self, x, obstacle, u):
+    def _forces_of(self, x, obstacle, u, turns):
         force, terms = np.zeros(3), np.zeros(6)
         # An unseen reading's terms are zero (`fields.superposed`), and with
         # nothing seen so is the own field: skipped, as superposed skips them.
@@ -214,7 +232,8 @@ class RelativeNavigator(LeafSystem):
         if not seen:
             return force, terms
         for i in seen:
-            F_i, terms_i = self._terms(_relative(x, u, i), _alone(obstacle, i))
+            relative = _relative(x, u, i, turns[i])
+            F_i, terms_i = self._terms(relative, _alone(obstacle, i))
             force, terms = force + F_i, terms + terms_i
         if not self._own_pace:
             return force, terms
@@ -232,10 +251,17 @@ class RelativeNavigator(LeafSystem):
         )
 
 
-def _relative(x: np.ndarray, u: np.ndarray, i: int) -> np.ndarray:
+def _relative(x: np.ndarray, u: np.ndarray, i: int, turn: float) -> np.ndarray:
+    """x with the velocity relative to reading i's obstacle, turned `turn`
+    degrees right (the rule of the road; 0 for an obstacle)."""
     relative = x.copy()
     relative[VELOCITY] -= u[3 * i : 3 * i + 3]
+    if turn:
+        relative[VELOCITY] = turned_right(relative[VELOCITY], turn)
     return relative
+
+
+NO_TURNS = np.zeros(OBSTACLE_COUNT)
 
 
 def _alone(obstacle: np.ndarray, i: int) -> np.ndarray:
@@ -244,14 +270,19 @@ def _alone(obstacle: np.ndarray, i: int) -> np.ndarray:
 
 
 def relative_navigator(
-    make_navigator: Callable[[], LeafSystem], estimate: RelativeVelocity, rate_hz: float
+    make_navigator: Callable[[], LeafSystem],
+    estimate: RelativeVelocity,
+    rate_hz: float,
+    keep_right: float = 0.0,
 ) -> Diagram:
     """A navigator that sums `make_navigator()`'s field over the readings,
     each with the velocity relative to its obstacle, estimated from readings
     sampled at `rate_hz` (see the module docstring), and with
     `estimate.own_pace` keeps the pace of that field computed with the
     vehicle's own velocity. `make_navigator()` must be an
-    `ObstacleNavigator`, whose force is the sum of its readings'."""
+    `ObstacleNavigator`, whose force is the sum of its readings'.
+    `keep_right` > 0: `RelativeNavigator`'s rule of the road, its input
+    "vehicle_readings" exported."""
     builder = DiagramBuilder()
     estimator = builder.AddNamedSystem(
         "velocity_estimator",
@@ -259,11 +290,15 @@ def relative_navigator(
     )
     navigator = builder.AddNamedSystem(
         "relative_navigator",
-        RelativeNavigator(make_navigator(), estimate.own_pace, PACE_BLEND_SPEED),
+        RelativeNavigator(
+            make_navigator(), estimate.own_pace, PACE_BLEND_SPEED, keep_right
+        ),
     )
     for name in ("state", "obstacle"):
         builder.ExportInput(estimator.GetInputPort(name), name)
         builder.ConnectInput(name, navigator.GetInputPort(name))
+    if keep_right > 0.0:
+        builder.ExportInput(navigator.GetInputPort("vehicle_readings"))
     velocity = estimator.GetOutputPort("obstacle_velocity")
     builder.Connect(velocity, navigator.GetInputPort("obstacle_velocity"))
     for name in ("obstacle_force", "obstacle_force_terms"):
