@@ -324,7 +324,11 @@ class FleetGroup:
         self.ports = [f.diagram.GetInputPort("other_vehicles") for f in self.fleet]
         # Only where nothing but the vehicles moves (`settles` without them).
         quiet = until_settled and settles(replace(scenario, other_vehicles=[]))
-        self.settled = [settled_monitor(f) for f in self.fleet] if quiet else []
+        self.settled = [
+            (settled_monitor(f), c)
+            for f, c in zip(self.fleet, self.contexts, strict=True)
+            if quiet
+        ]
         self.cpu_time = 0.0
 
     def states(self) -> np.ndarray:
@@ -356,10 +360,9 @@ class FleetGroup:
             else:
                 simulator.AdvanceTo(until)
         ended = until is not None and any(c.get_time() < until for c in self.contexts)
-        at_rest = bool(self.settled) and all(
-            m(c).severity() == RESTING
-            for m, c in zip(self.settled, self.contexts, strict=True)
-        )
+        # A list, not a generator: every monitor must see every exchange.
+        resting = [m(c).severity() == RESTING for m, c in self.settled]
+        at_rest = bool(resting) and all(resting)
         self.cpu_time += time.process_time() - start
         return self.states(), ended, at_rest
 
