@@ -3,8 +3,11 @@ antipodal circle (docs/dynamic.md, "Symmetric conflicts").
 
     python benchmarks/fleet_conflicts.py [--sizes 2,3,4,8,16,32]
                                          [--methods mfi,mfi-paper,apf,gf]
+                                         [--keep-right 0,30] [--processes P]
 
-Every method flies the same circles (`world.fleets.antipodal_circle`).
+Every method flies the same circles (`world.fleets.antipodal_circle`),
+without the rule of the road (--keep-right 0) and with each angle listed
+(`relative_velocity.keep_right`; the default's is the scenario default).
 Printed per flight: the outcome, the least separation, deadlocks (vehicles
 short of their goals at the end without contact), and the side each vehicle
 chose: the sign of its angular momentum about the circle's centre, (p × v)_z
@@ -15,9 +18,13 @@ chose the same side.
 """
 
 import argparse
+import itertools
+import os
+from dataclasses import replace
 
 import numpy as np
 
+from mfi_drake.config.dynamic import RelativeVelocity
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.world.fleets import antipodal_circle, circle_radius
 
@@ -36,27 +43,35 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="2,3,4,8,16,32")
     parser.add_argument("--methods", default="mfi,mfi-paper,apf,gf")
+    parser.add_argument("--keep-right", default=f"0,{RelativeVelocity.keep_right:g}")
+    parser.add_argument("--processes", type=int, default=os.cpu_count() or 1)
     args = parser.parse_args()
     print(
-        "| N | method | outcome | least separation [m] | deadlocks "
+        "| N | rule [°] | method | outcome | least separation [m] | deadlocks "
         "| sides (+ anticlockwise) | roundabout |"
     )
-    print("|---|---|---|---|---|---|---|")
-    for n in [int(k) for k in args.sizes.split(",")]:
+    print("|---|---|---|---|---|---|---|---|")
+    for n, turn, method in itertools.product(
+        [int(k) for k in args.sizes.split(",")],
+        [float(k) for k in args.keep_right.split(",")],
+        args.methods.split(","),
+    ):
         scene = antipodal_circle(n, duration=5.0 * 2.0 * circle_radius(n))
-        for method in args.methods.split(","):
-            flight = simulate(scene, method)
-            m = flight.metrics
-            contact = m["outcome"] == "collision"
-            deadlocks = 0 if contact else sum(not v["reached"] for v in m["vehicles"])
-            sides = [side(f) for f in (flight, *flight.others)]
-            shown = "".join({1: "+", -1: "−", 0: "0"}[s] for s in sides)
-            roundabout = "yes" if len(set(sides)) == 1 and sides[0] != 0 else "no"
-            print(
-                f"| {n} | {method} | {m['outcome']} | {m['min_separation']:.3f} "
-                f"| {deadlocks} | {shown} | {roundabout} |",
-                flush=True,
-            )
+        rule = replace(scene.relative_velocity, keep_right=turn)
+        scene = replace(scene, relative_velocity=rule)
+        flight = simulate(scene, method, stop_at_contact=True, processes=args.processes)
+        m = flight.metrics
+        contact = m["outcome"] == "collision"
+        deadlocks = 0 if contact else sum(not v["reached"] for v in m["vehicles"])
+        sides = [side(f) for f in (flight, *flight.others)]
+        shown = "".join({1: "+", -1: "−", 0: "0"}[s] for s in sides)
+        roundabout = "yes" if len(set(sides)) == 1 and sides[0] != 0 else "no"
+        print(
+            f"| {n} | {turn:g} | {method} | {m['outcome']} "
+            f"| {m['min_separation']:.3f} "
+            f"| {deadlocks} | {shown} | {roundabout} |",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

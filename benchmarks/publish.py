@@ -33,6 +33,7 @@ import tomllib
 from collections.abc import Callable
 
 from mfi_drake.files import write_section
+from mfi_drake.studies.fleet_sweep import fleet_table
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MANIFEST = os.path.join("docs", "results", "published.toml")
@@ -41,8 +42,10 @@ PAGES = [
     "docs/comparison.md",
     "docs/depth_camera.md",
     "docs/robustness.md",
+    "docs/dynamic.md",
 ]
 RESULTS = "docs/results"
+FLEETS = (4, 8)  # the multi-vehicle sweeps' fleet sizes (fleet_4, fleet_8)
 DENSITIES = ("0.05", "0.1", "0.2")
 # Row labels of the methods, as the tables name them.
 LABELS = {
@@ -88,12 +91,25 @@ def command_argv(command: str, workers: int, scheduler: str | None) -> list[str]
     return argv
 
 
+def command_env(command: str) -> tuple[dict[str, str], str]:
+    """(the environment, the command without them): a recorded command may
+    begin with NAME=VALUE settings, as in a shell (PYTHONPATH=benchmarks for
+    the README's example field)."""
+    words = shlex.split(command)
+    env = dict(os.environ)
+    while words and re.fullmatch(r"[A-Z_]+=.*", words[0]):
+        name, value = words.pop(0).split("=", 1)
+        env[name] = value
+    return env, shlex.join(words)
+
+
 def regenerate(sets: list[dict], workers: int, scheduler: str | None) -> None:
     for s in sets:
         for command in s["commands"]:
-            argv = command_argv(command, workers, scheduler)
+            env, rest = command_env(command)
+            argv = command_argv(rest, workers, scheduler)
             print(f"== {s['path']}: {shlex.join(argv)}", flush=True)
-            subprocess.run(argv, cwd=ROOT, check=True)
+            subprocess.run(argv, cwd=ROOT, check=True, env=env)
 
 
 # --- reading the summaries -------------------------------------------------
@@ -346,6 +362,20 @@ def robustness_table(root: str) -> str:
     )
 
 
+def fleet_tables(root: str) -> str:
+    """The multi-vehicle sweeps (`mfi-drake sweep --vehicles N`), one table
+    a fleet size, as the sweep writes them."""
+    parts = []
+    for vehicles in FLEETS:
+        result = summary(root, f"fleet_{vehicles}")
+        config = result["config"]
+        parts.append(
+            f"{vehicles} vehicles, seed {config['seed']}, {config['n']} fields:\n\n"
+            + fleet_table(result)
+        )
+    return "\n\n".join(parts)
+
+
 def tuning_table(root: str, name: str) -> str:
     return markdown_table(read(root, RESULTS, name, "tuning.md"))
 
@@ -553,6 +583,7 @@ TABLES: dict[str, Callable[[str], str]] = {
     "ablation": ablation_table,
     "camera": camera_table,
     "robustness_state": robustness_table,
+    "fleet": fleet_tables,
 }
 
 

@@ -73,4 +73,4 @@ class RelativeVelocity:
     # circle it the same way (docs/dynamic.md, "Several vehicles"). 0: none.
     # Obstacles are seen as they are. Sphere sensors only: a camera cannot
     # tell a vehicle from an obstacle.
-    keep_right: float = 30.0
+    keep_right: float = 60.0
