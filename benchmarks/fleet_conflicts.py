@@ -3,7 +3,8 @@ antipodal circle (docs/dynamic.md, "Symmetric conflicts").
 
     python benchmarks/fleet_conflicts.py [--sizes 2,3,4,8,16,32]
                                          [--methods mfi,mfi-paper,apf,gf]
-                                         [--keep-right 0,30] [--processes P]
+                                         [--keep-right 0,60] [--processes P]
+                                         [--page docs/dynamic.md]
 
 Every method flies the same circles (`world.fleets.antipodal_circle`),
 without the rule of the road (--keep-right 0) and with each angle listed
@@ -25,6 +26,7 @@ from dataclasses import replace
 import numpy as np
 
 from mfi_drake.config.dynamic import RelativeVelocity
+from mfi_drake.files import write_section
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.world.fleets import antipodal_circle, circle_radius
 
@@ -39,18 +41,22 @@ def side(flight) -> int:
     return int(np.sign(round(turn, 6)))
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="2,3,4,8,16,32")
     parser.add_argument("--methods", default="mfi,mfi-paper,apf,gf")
     parser.add_argument("--keep-right", default=f"0,{RelativeVelocity.keep_right:g}")
     parser.add_argument("--processes", type=int, default=os.cpu_count() or 1)
-    args = parser.parse_args()
-    print(
-        "| N | rule [°] | method | outcome | least separation [m] | deadlocks "
-        "| sides (+ anticlockwise) | roundabout |"
+    parser.add_argument(
+        "--page", help="a page to write the table into (section fleet_conflicts)"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    args = parser.parse_args(argv)
+    lines = [
+        "| N | rule [°] | method | outcome | least separation [m] | deadlocks "
+        "| sides (+ anticlockwise) | roundabout |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    print("\n".join(lines), flush=True)
     for n, turn, method in itertools.product(
         [int(k) for k in args.sizes.split(",")],
         [float(k) for k in args.keep_right.split(",")],
@@ -66,12 +72,14 @@ def main() -> None:
         sides = [side(f) for f in (flight, *flight.others)]
         shown = "".join({1: "+", -1: "−", 0: "0"}[s] for s in sides)
         roundabout = "yes" if len(set(sides)) == 1 and sides[0] != 0 else "no"
-        print(
+        lines.append(
             f"| {n} | {turn:g} | {method} | {m['outcome']} "
             f"| {m['min_separation']:.3f} "
-            f"| {deadlocks} | {shown} | {roundabout} |",
-            flush=True,
+            f"| {deadlocks} | {shown} | {roundabout} |"
         )
+        print(lines[-1], flush=True)
+    if args.page:
+        write_section(args.page, "fleet_conflicts", "\n".join(lines))
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@ the exchange rate (docs/dynamic.md, "Several vehicles").
 
     python benchmarks/fleet_scaling.py [--sizes 1,2,4,8,16,32]
                                        [--processes P] [--rates 5,10,20,50]
-                                       [--figure PATH]
+                                       [--figure PATH] [--page docs/dynamic.md]
 
 Scaling: for each N, an antipodal circle of N vehicles (`world.fleets`,
 radius `circle_radius(N)`, duration 5 s per metre of diameter) is flown by
@@ -28,6 +28,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from mfi_drake.files import write_section
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.world import generator
 from mfi_drake.world.fleets import (
@@ -52,12 +53,19 @@ def speeds(flight) -> tuple[float, float]:
     return vehicle_seconds / flight.cpu_time, vehicle_seconds / flight.wall_time
 
 
-def scaling(sizes: list[int], processes: int) -> list[dict]:
-    print(
+def say(lines: list[str], line: str) -> None:
+    """Prints a line of a table and keeps it for --page."""
+    print(line, flush=True)
+    lines.append(line)
+
+
+def scaling(sizes: list[int], processes: int, lines: list[str]) -> list[dict]:
+    say(
+        lines,
         "| N | outcome | least separation [m] | vehicle-s per CPU s | per wall s "
-        "| alone: per CPU s | ratio (CPU) | ratio (wall) |"
+        "| alone: per CPU s | per wall s | ratio (CPU) | ratio (wall) |",
     )
-    print("|---|---|---|---|---|---|---|---|")
+    say(lines, "|---|---|---|---|---|---|---|---|---|")
     rows = []
     for n in sizes:
         fleet = circle(n)
@@ -79,15 +87,16 @@ def scaling(sizes: list[int], processes: int) -> list[dict]:
         }
         rows.append(row)
         sep = "–" if separation is None else f"{separation:.3f}"
-        print(
+        say(
+            lines,
             f"| {n} | {row['outcome']} | {sep} | {cpu:.1f} | {wall:.1f} "
-            f"| {cpu_ref:.1f} | {row['ratio']:.2f} | {row['ratio_wall']:.2f} |",
-            flush=True,
+            f"| {cpu_ref:.1f} | {wall_ref:.1f} | {row['ratio']:.2f} "
+            f"| {row['ratio_wall']:.2f} |",
         )
     return rows
 
 
-def rates(hz: list[float]) -> None:
+def rates(hz: list[float], lines: list[str]) -> None:
     scenes = [
         load_scenario(os.path.join(ROOT, "scenarios", f"{name}.yaml"))
         for name in ("swarm_circle", "swarm_corridor")
@@ -95,11 +104,12 @@ def rates(hz: list[float]) -> None:
     scenes += [
         random_pairs(generator.random_field(0, i, 0.1), 4, 0, i) for i in range(3)
     ]
-    print(
-        "\n| scene | rate [Hz] | outcome | least separation [m] "
-        "| path lengths [m] | largest path difference from the fastest [m] |"
+    say(
+        lines,
+        "| scene | rate [Hz] | outcome | least separation [m] "
+        "| path lengths [m] | largest path difference from the fastest [m] |",
     )
-    print("|---|---|---|---|---|---|")
+    say(lines, "|---|---|---|---|---|---|")
     for scene in scenes:
         flown = {r: simulate(replace(scene, exchange_hz=r)).metrics for r in hz}
         paths = {
@@ -109,10 +119,10 @@ def rates(hz: list[float]) -> None:
         for r, m in flown.items():
             diff = np.abs(paths[r] - paths[max(hz)]).max()
             listed = ", ".join(f"{p:.2f}" for p in paths[r])
-            print(
+            say(
+                lines,
                 f"| {scene.name} | {r:g} | {m['outcome']} "
                 f"| {m['min_separation']:.3f} | {listed} | {diff:.3f} |",
-                flush=True,
             )
 
 
@@ -140,18 +150,30 @@ def figure(rows: list[dict], path: str) -> None:
         fig.savefig(tmp, format="png", dpi=120)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="1,2,4,8,16,32")
     parser.add_argument("--processes", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--rates", default="5,10,20,50")
     parser.add_argument("--figure", default="")
-    args = parser.parse_args()
-    rows = scaling([int(n) for n in args.sizes.split(",") if n], args.processes)
-    if args.figure:
-        figure(rows, args.figure)
+    parser.add_argument(
+        "--page",
+        help="a page to write the tables into (sections fleet_scaling, fleet_rates)",
+    )
+    args = parser.parse_args(argv)
+    sizes = [int(n) for n in args.sizes.split(",") if n]
+    if sizes:
+        lines = [f"{args.processes} processes, {os.cpu_count()} cores:", ""]
+        rows = scaling(sizes, args.processes, lines)
+        if args.figure:
+            figure(rows, args.figure)
+        if args.page:
+            write_section(args.page, "fleet_scaling", "\n".join(lines))
     if args.rates:
-        rates([float(r) for r in args.rates.split(",")])
+        lines = []
+        rates([float(r) for r in args.rates.split(",")], lines)
+        if args.page:
+            write_section(args.page, "fleet_rates", "\n".join(lines))
 
 
 if __name__ == "__main__":

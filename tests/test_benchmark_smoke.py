@@ -85,3 +85,23 @@ def test_stale_results_hand_back_the_first_result_and_are_undone():
     assert got == [1, 1, 1, 16, 16] and calls == [1, 4]
     assert last(6, square, 6) == 36  # outside the block: computed as usual
     assert last(6, square, 6) == 36 and calls == [1, 4, 6]
+
+
+def test_fleet_conflicts_writes_its_table_and_the_rule_turns_the_roundabout(
+    tmp_path, capsys
+):
+    # Two vehicles head-on: without the rule both swerve left (the head-on
+    # tangent's bias), so they circle the middle clockwise; with it, right
+    # and anticlockwise. Either way one side each: a roundabout.
+    page = tmp_path / "page.md"
+    page.write_text("<!-- BEGIN fleet_conflicts -->\n<!-- END fleet_conflicts -->\n")
+    argv = ["--sizes", "2", "--methods", "mfi", "--keep-right", "0,60"]
+    load_benchmark("fleet_conflicts").main(
+        argv + ["--processes", "1", "--page", str(page)]
+    )
+    rows = [line for line in page.read_text().splitlines() if line.startswith("| 2 ")]
+    assert [row.split(" | ")[1:4] for row in rows] == [
+        ["0", "mfi", "success"],
+        ["60", "mfi", "success"],
+    ]
+    assert "| −− | yes |" in rows[0] and "| ++ | yes |" in rows[1]
