@@ -6,16 +6,16 @@ antipodal circle (docs/dynamic.md, "Symmetric conflicts").
                                          [--keep-right 0,60] [--processes P]
                                          [--page docs/dynamic.md]
 
-Every method flies the same circles (`world.fleets.antipodal_circle`),
-without the rule of the road (--keep-right 0) and with each angle listed
-(`relative_velocity.keep_right`; the default's is the scenario default).
-Printed per flight: the outcome, the least separation, deadlocks (vehicles
-short of their goals at the end without contact), and the side each vehicle
-chose: the sign of its angular momentum about the circle's centre, (p × v)_z
-summed over the logged steps while it is within 2 m of the centre: + it
-went round anticlockwise seen from above (the centre on its left: it
-swerved right), − clockwise (it swerved left). A roundabout: every vehicle
-chose the same side.
+Every method flies the same circles (`world.fleets.antipodal_circle`; a
+fleet ends at its first contact) with each angle of the rule of the road
+listed (`relative_velocity.keep_right`; 0: none; by default none and the
+scenario default). Printed per circle and method, for each angle: the
+outcome (a time-out with the vehicles short of their goals: deadlocks), the
+least separation, and the side each vehicle chose: the sign of its angular
+momentum about the circle's centre, (p × v)_z summed over the logged steps
+while it is within 2 m of the centre: + it went round anticlockwise seen
+from above (the centre on its left: it swerved right), − clockwise (it
+swerved left). Every vehicle on one side: a roundabout.
 """
 
 import argparse
@@ -41,6 +41,19 @@ def side(flight) -> int:
     return int(np.sign(round(turn, 6)))
 
 
+def conflict(flight) -> str:
+    """A table cell: the outcome (with the vehicles deadlocked short of their
+    goals, if any), the least separation, and each vehicle's side."""
+    m = flight.metrics
+    result = m["outcome"]
+    if result == "timeout":
+        result += f" ({sum(not v['reached'] for v in m['vehicles'])} short)"
+    sides = "".join(
+        {1: "+", -1: "−", 0: "0"}[side(f)] for f in (flight, *flight.others)
+    )
+    return f"{result}, {m['min_separation']:.3f}, {sides}"
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="2,3,4,8,16,32")
@@ -51,32 +64,27 @@ def main(argv: list[str] | None = None) -> None:
         "--page", help="a page to write the table into (section fleet_conflicts)"
     )
     args = parser.parse_args(argv)
-    lines = [
-        "| N | rule [°] | method | outcome | least separation [m] | deadlocks "
-        "| sides (+ anticlockwise) | roundabout |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
+    turns = [float(k) for k in args.keep_right.split(",")]
+    header = "| N | method | " + " | ".join(
+        f"rule {t:g}°: outcome, least separation [m], sides" for t in turns
+    )
+    lines = [header + " |", "|---|---|" + "---|" * len(turns)]
     print("\n".join(lines), flush=True)
-    for n, turn, method in itertools.product(
-        [int(k) for k in args.sizes.split(",")],
-        [float(k) for k in args.keep_right.split(",")],
-        args.methods.split(","),
+    for n, method in itertools.product(
+        [int(k) for k in args.sizes.split(",")], args.methods.split(",")
     ):
         scene = antipodal_circle(n, duration=5.0 * 2.0 * circle_radius(n))
-        rule = replace(scene.relative_velocity, keep_right=turn)
-        scene = replace(scene, relative_velocity=rule)
-        flight = simulate(scene, method, stop_at_contact=True, processes=args.processes)
-        m = flight.metrics
-        contact = m["outcome"] == "collision"
-        deadlocks = 0 if contact else sum(not v["reached"] for v in m["vehicles"])
-        sides = [side(f) for f in (flight, *flight.others)]
-        shown = "".join({1: "+", -1: "−", 0: "0"}[s] for s in sides)
-        roundabout = "yes" if len(set(sides)) == 1 and sides[0] != 0 else "no"
-        lines.append(
-            f"| {n} | {turn:g} | {method} | {m['outcome']} "
-            f"| {m['min_separation']:.3f} "
-            f"| {deadlocks} | {shown} | {roundabout} |"
-        )
+        cells = []
+        for turn in turns:
+            rule = replace(scene.relative_velocity, keep_right=turn)
+            flight = simulate(
+                replace(scene, relative_velocity=rule),
+                method,
+                stop_at_contact=True,
+                processes=args.processes,
+            )
+            cells.append(conflict(flight))
+        lines.append(f"| {n} | {method} | " + " | ".join(cells) + " |")
         print(lines[-1], flush=True)
     if args.page:
         write_section(args.page, "fleet_conflicts", "\n".join(lines))
