@@ -1,5 +1,5 @@
 """Symmetric conflicts: N vehicles meeting head-on in the middle of an
-antipodal circle (docs/dynamic.md, "Symmetric conflicts").
+antipodal circle (docs/fleets.md, "Symmetric conflicts").
 
     python benchmarks/fleet_conflicts.py [--sizes 2,3,4,8,16,32]
                                          [--methods mfi,mfi-paper,apf,gf]

@@ -1,5 +1,5 @@
 """How a fleet's cost grows with its size, and how its outcomes depend on
-the exchange rate (docs/dynamic.md, "Several vehicles").
+the exchange rate (docs/fleets.md).
 
     python benchmarks/fleet_scaling.py [--sizes 1,2,4,8,16,32]
                                        [--processes P] [--rates 5,10,20,50]

@@ -42,7 +42,7 @@ PAGES = [
     "docs/comparison.md",
     "docs/depth_camera.md",
     "docs/robustness.md",
-    "docs/dynamic.md",
+    "docs/fleets.md",
 ]
 RESULTS = "docs/results"
 FLEETS = (4, 8)  # the multi-vehicle sweeps' fleet sizes (fleet_4, fleet_8)

@@ -70,7 +70,7 @@ class RelativeVelocity:
     # velocity relative to another vehicle is turned this far to the right
     # (about e_z) before that vehicle's field term is evaluated, so every
     # vehicle swerves right of every other, and vehicles meeting in a crowd
-    # circle it the same way (docs/dynamic.md, "Several vehicles"). 0: none.
+    # circle it the same way (docs/fleets.md). 0: none.
     # Obstacles are seen as they are. Sphere sensors only: a camera cannot
     # tell a vehicle from an obstacle.
     keep_right: float = 60.0

@@ -204,7 +204,7 @@ class Scenario:
     # Further vehicles flown at once (docs/dynamic.md).
     other_vehicles: list[OtherVehicle] = field(default_factory=list)
     # Hz: how often the vehicles of a fleet exchange their positions and
-    # velocities (docs/dynamic.md, "Several vehicles").
+    # velocities (docs/fleets.md).
     exchange_hz: float = 10.0
     relative_velocity: RelativeVelocity = field(default_factory=RelativeVelocity)
     navigator: NavigatorParams = field(default_factory=NavigatorParams)

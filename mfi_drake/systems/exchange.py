@@ -1,5 +1,5 @@
 """The other vehicles of a fleet as one vehicle's diagram sees them
-(docs/dynamic.md, "Several vehicles").
+(docs/fleets.md).
 
 Each vehicle of a fleet is flown by its own single-vehicle diagram and
 Simulator (`flight.simulation.fly_fleet`); every 1/exchange_hz s the

@@ -1,4 +1,4 @@
-"""Scenes of N vehicles (docs/dynamic.md, "Several vehicles"): antipodal
+"""Scenes of N vehicles (docs/fleets.md): antipodal
 circles, random start and goal pairs among a sweep's random obstacles, and
 crossing streams. Each returns a `Scenario` whose first vehicle is its own
 and the rest `other_vehicles`; `world.validation` checks it like any
