@@ -45,7 +45,7 @@ PAGES = [
     "docs/fleets.md",
 ]
 RESULTS = "docs/results"
-FLEETS = (4, 8)  # the multi-vehicle sweeps' fleet sizes (fleet_4, fleet_8)
+FLEETS = ("fleet_4", "fleet_8", "fleet_8_methods")  # the multi-vehicle sweeps
 DENSITIES = ("0.05", "0.1", "0.2")
 # Row labels of the methods, as the tables name them.
 LABELS = {
@@ -366,12 +366,12 @@ def fleet_tables(root: str) -> str:
     """The multi-vehicle sweeps (`mfi-drake sweep --vehicles N`), one table
     a fleet size, as the sweep writes them."""
     parts = []
-    for vehicles in FLEETS:
-        result = summary(root, f"fleet_{vehicles}")
+    for name in FLEETS:
+        result = summary(root, name)
         config = result["config"]
         parts.append(
-            f"{vehicles} vehicles, seed {config['seed']}, {config['n']} fields:\n\n"
-            + fleet_table(result)
+            f"**{config['vehicles']} vehicles**, seed {config['seed']}, "
+            f"{config['n']} fields ({name}):\n\n" + fleet_table(result)
         )
     return "\n\n".join(parts)
 

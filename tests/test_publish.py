@@ -81,7 +81,15 @@ def test_recorded_commands_run_on_the_requested_workers_and_scheduler():
     ]  # fmt: skip
     for s in publish.published_sets():
         for command in s["commands"]:
-            assert command.split()[0] in ("mfi-drake", "python"), command
+            _, rest = publish.command_env(command)
+            assert rest.split()[0] in ("mfi-drake", "python"), command
+
+
+def test_a_recorded_command_may_set_its_environment_first():
+    env, rest = publish.command_env("PYTHONPATH=benchmarks mfi-drake sweep --n 1")
+    assert env["PYTHONPATH"] == "benchmarks" and rest == "mfi-drake sweep --n 1"
+    env, rest = publish.command_env("mfi-drake sweep --set 'A=b'")
+    assert rest == "mfi-drake sweep --set A=b" and env == dict(os.environ)
 
 
 def test_protocol_choices_are_the_tune_winners_but_mfi_s():
