@@ -18,8 +18,10 @@ from matplotlib.image import imread
 
 from mfi_drake.app.animation import (
     frame_scene,
+    legend_html,
     offline_meshcat,
     scene_box,
+    titled_page,
     write_animation,
 )
 from mfi_drake.app.cli import main
@@ -122,11 +124,12 @@ def test_the_saved_animation_draws_the_scene_in_a_browser(tmp_path):
     flight = simulate(scenario)
     page = str(tmp_path / "flight.html")
     write_animation(scenario, [flight], page)
-    # The same page with nothing in it, seen by the same camera.
+    # The same page with nothing in it, seen by the same camera, with the
+    # same legend over it: what differs is the scene alone.
     empty = offline_meshcat()
     frame_scene(empty, *scene_box(scenario, [flight]))
     control = str(tmp_path / "empty.html")
-    write_text(control, empty.StaticHtml())
+    write_text(control, titled_page(empty.StaticHtml(), "empty", legend_html([flight])))
 
     drawn = screenshot(page, str(tmp_path / "flight.png"))
     blank = screenshot(control, str(tmp_path / "empty.png"))

@@ -298,7 +298,9 @@ def relative_navigator(
         builder.ExportInput(estimator.GetInputPort(name), name)
         builder.ConnectInput(name, navigator.GetInputPort(name))
     if keep_right > 0.0:
-        builder.ExportInput(navigator.GetInputPort("vehicle_readings"))
+        builder.ExportInput(
+            navigator.GetInputPort("vehicle_readings"), "vehicle_readings"
+        )
     velocity = estimator.GetOutputPort("obstacle_velocity")
     builder.Connect(velocity, navigator.GetInputPort("obstacle_velocity"))
     for name in ("obstacle_force", "obstacle_force_terms"):
