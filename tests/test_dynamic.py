@@ -3,6 +3,7 @@ of their motion, exact clearance to moving geometry, the ground, the
 velocity estimate from successive readings, several vehicles and their run
 JSON, and every bad input of these formats as one line with exit status 2."""
 
+import dataclasses
 import json
 import os
 import sys
@@ -498,3 +499,12 @@ def test_sweep_rejects_bad_motion_arguments(tmp_path, capsys, args, named):
     assert main(["sweep", "--out", str(tmp_path), *args]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and named in err
+
+
+def test_a_fleet_among_moving_obstacles_flies_with_the_rule_of_the_road(write_yaml):
+    # The estimate's navigator (a diagram) must read which readings are
+    # vehicles: built and flown, its input is connected.
+    scenario = load_scenario(write_yaml(GOOD))
+    assert scenario.relative_velocity.keep_right > 0.0
+    flight = simulate(dataclasses.replace(scenario, duration=0.5))
+    assert len(flight.others) == 1 and flight.metrics["sim_time"] == 0.5
