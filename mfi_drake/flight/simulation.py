@@ -367,7 +367,8 @@ class FleetGroup:
         return self.states(), ended, at_rest
 
     def flights(self, wall_time: float) -> list[Flight]:
-        """Its vehicles' Flights (metrics left to the caller)."""
+        """Its vehicles' Flights (metrics left to the caller), each with the
+        group's CPU time in its steps."""
         return [
             logged(flight, simulator, wall_time, self.cpu_time)
             for flight, simulator in zip(self.fleet, self.simulators, strict=True)
@@ -390,7 +391,7 @@ def serve_group(fd: int) -> None:
                 connection.send(("ok", group.step(*request[1:])))
             else:  # the caller has the scenarios: they do not pickle
                 flights = [replace(f, scenario=None) for f in group.flights(request[1])]
-                connection.send(("ok", (flights, group.cpu_time)))
+                connection.send(("ok", flights))
                 return
     except Exception as e:  # raised again in the fleet's process
         try:
@@ -418,7 +419,6 @@ class RemoteGroup:
         )
         theirs.close()
         self._connection = Connection(ours.detach())
-        self.cpu_time = 0.0
         self.send(scenario_to_yaml(scenario), *group_arguments)
 
     def send(self, *request) -> None:
@@ -502,17 +502,18 @@ def fly_fleet(
                 break
         wall_time = time.perf_counter() - start
         flights = local.flights(wall_time)
+        cpu_time = time.process_time() - start_cpu
         flown = vehicle_scenarios(scenario)
         for group, part in zip(remote, parts[1:], strict=True):
             group.send("flights", wall_time)
-            answer, group.cpu_time = group.receive()
+            answer = group.receive()
+            cpu_time += answer[0].cpu_time  # the group's (`FleetGroup.flights`)
             flights += [
                 replace(f, scenario=flown[k]) for f, k in zip(answer, part, strict=True)
             ]
     finally:
         for group in remote:
             group.close()
-    cpu_time = time.process_time() - start_cpu + sum(g.cpu_time for g in remote)
     for flight in flights:
         flight.cpu_time = cpu_time
     for other in flights[1:]:

@@ -297,7 +297,7 @@ def relative_navigator(
     for name in ("state", "obstacle"):
         builder.ExportInput(estimator.GetInputPort(name), name)
         builder.ConnectInput(name, navigator.GetInputPort(name))
-    if keep_right > 0.0:
+    if navigator.HasInputPort("vehicle_readings"):
         builder.ExportInput(
             navigator.GetInputPort("vehicle_readings"), "vehicle_readings"
         )
