@@ -28,7 +28,7 @@ import numpy as np
 from mfi_drake.config.dynamic import RelativeVelocity
 from mfi_drake.files import write_section
 from mfi_drake.flight.simulation import simulate
-from mfi_drake.world.fleets import antipodal_circle, circle_radius
+from mfi_drake.world.fleets import antipodal_circle
 
 MEETING = 2.0  # [m] from the centre: where a vehicle's side is read
 
@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> None:
     for n, method in itertools.product(
         [int(k) for k in args.sizes.split(",")], args.methods.split(",")
     ):
-        scene = antipodal_circle(n, duration=5.0 * 2.0 * circle_radius(n))
+        scene = antipodal_circle(n)
         cells = []
         for turn in turns:
             rule = replace(scene.relative_velocity, keep_right=turn)

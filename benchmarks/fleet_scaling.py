@@ -33,18 +33,12 @@ from mfi_drake.flight.simulation import simulate
 from mfi_drake.world import generator
 from mfi_drake.world.fleets import (
     antipodal_circle,
-    circle_radius,
     random_pairs,
     with_vehicles,
 )
 from mfi_drake.world.validation import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SECONDS_PER_METRE = 5.0
-
-
-def circle(n: int):
-    return antipodal_circle(n, duration=SECONDS_PER_METRE * 2.0 * circle_radius(n))
 
 
 def speeds(flight) -> tuple[float, float]:
@@ -68,7 +62,7 @@ def scaling(sizes: list[int], processes: int, lines: list[str]) -> list[dict]:
     say(lines, "|---|---|---|---|---|---|---|---|---|")
     rows = []
     for n in sizes:
-        fleet = circle(n)
+        fleet = antipodal_circle(n)
         alone = with_vehicles(replace(fleet, name="alone"), [(fleet.start, fleet.goal)])
         reference = simulate(alone)
         flown = simulate(fleet, processes=processes)

@@ -63,6 +63,7 @@ def test_every_option_of_every_command_has_help_showing_its_default():
         "compare",
         "reproduce",
         "sweep",
+        "scene",
         "diagram",
         "tune",
         "analyze",

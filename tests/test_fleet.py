@@ -32,7 +32,11 @@ from mfi_drake.world.fleets import (
     random_pairs,
 )
 from mfi_drake.world.obstacles import nearest_obstacles, sensed
-from mfi_drake.world.validation import ScenarioWarning, validate_scenario
+from mfi_drake.world.validation import (
+    ScenarioWarning,
+    load_scenario,
+    validate_scenario,
+)
 
 
 # --- the exchange ---------------------------------------------------------------
@@ -121,6 +125,71 @@ def test_random_pairs_are_apart_clear_and_meet_head_on():
             >= PAIR_GAP
         )
     assert scene.obstacles == field.obstacles
+
+
+def _written(tmp_path, *argv) -> sc.Scenario:
+    path = str(tmp_path / "scene.yaml")
+    assert main(["scene", *argv, "--out", path]) == 0
+    return load_scenario(path)
+
+
+def test_scene_circle_puts_the_vehicles_evenly_and_sends_each_across(tmp_path):
+    scene = _written(tmp_path, "circle", "--vehicles", "5", "--radius", "4")
+    ends = [(scene.start, scene.goal)] + [
+        (o.start, o.goal) for o in scene.other_vehicles
+    ]
+    for k, (start, goal) in enumerate(ends):  # the closed form, by hand
+        a = 2.0 * math.pi * k / 5
+        assert start == pytest.approx([4.0 * math.cos(a), 4.0 * math.sin(a), 2.0])
+        assert goal == pytest.approx([-start[0], -start[1], 2.0])
+    assert scene.duration == 40.0  # 5 s per metre of its 8 m diameter
+
+
+def test_scene_streams_cross_at_right_angles(tmp_path):
+    scene = _written(tmp_path, "streams", "--vehicles", "4", "--length", "10")
+    ends = [(scene.start, scene.goal)] + [
+        (o.start, o.goal) for o in scene.other_vehicles
+    ]
+    directions = {tuple(np.subtract(g, s)) for s, g in ends}
+    assert directions == {(10.0, 0.0, 0.0), (0.0, 10.0, 0.0)}
+
+
+@pytest.mark.parametrize("vehicles", [1, 3])
+def test_scene_field_is_the_field_the_sweep_flies(tmp_path, vehicles):
+    argv = ["field", "--vehicles", str(vehicles), "--seed", "4", "--index", "2"]
+    scene = _written(tmp_path, *argv, "--density", "0.2")
+    config, tasks = (
+        (sweep.SweepConfig(seed=4), sweep.SINGLE)
+        if vehicles == 1
+        else (
+            fleet_sweep.FleetSweepConfig(seed=4, vehicles=vehicles),
+            fleet_sweep.FLEET,
+        )
+    )
+    flown = generator.self_contained(tasks.make_field(config, 0.2, 2))
+    assert scenario_to_yaml(dataclasses.replace(scene, base_dir="")) == (
+        scenario_to_yaml(flown)
+    )
+
+
+@pytest.mark.parametrize(
+    "argv, named",
+    [
+        (["field", "--radius", "3"], "--radius = 3.0: shapes a circle scene only"),
+        (["circle", "--seed", "2"], "--seed = 2: shapes a field scene only"),
+        (["field", "--height", "3"], "--height = 3.0: shapes a circle or streams"),
+        (["circle", "--vehicles", "0"], "--vehicles = 0: must be ≥ 1"),
+        (["circle", "--radius", "-1"], "--radius = -1.0: must be a finite number > 0"),
+        (["field", "--index", "-1"], "--index = -1: must be ≥ 0"),
+        (["circle", "--radius", "0.5"], "other_vehicles[0].start"),  # too close
+    ],
+)
+def test_a_bad_scene_is_one_line_and_writes_nothing(tmp_path, capsys, argv, named):
+    path = tmp_path / "scene.yaml"
+    assert main(["scene", *argv, "--out", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and named in err, err
+    assert not path.exists()
 
 
 def _scene(obstacle: sc.Obstacle, **ends) -> sc.Scenario:

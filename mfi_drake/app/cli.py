@@ -224,6 +224,92 @@ def cmd_diagram(args) -> int:
     return 0
 
 
+def sweep_config(args, **more):
+    """(config, tasks) of the random fields the arguments name (seed,
+    sensor, vehicles, motion, goal clearance; checked here): a fleet's
+    (`studies.fleet_sweep`) where --vehicles > 1. `more`: further fields of
+    the configuration."""
+    from mfi_drake.studies.fleet_sweep import FLEET, FleetSweepConfig
+    from mfi_drake.studies.sweep import SINGLE, SweepConfig
+
+    _check_field_numbers(args)
+    _check_motion_numbers(args)
+    _at_least("--vehicles", args.vehicles, 1)
+    fleet = args.vehicles > 1
+    config = (FleetSweepConfig if fleet else SweepConfig)(
+        **({"vehicles": args.vehicles} if fleet else {}),
+        seed=args.seed,
+        sensor=args.sensor,
+        moving=args.moving,
+        obstacle_speed=args.obstacle_speed,
+        goal_clearance=args.goal_clearance,
+        **more,
+    )
+    return config, (FLEET if fleet else SINGLE)
+
+
+# Each kind of `scene` and the options that shape it (the rest: every kind).
+SCENE_OPTIONS = {
+    "circle": ("radius", "height", "duration"),
+    "streams": ("length", "spacing", "height"),
+    "field": (
+        "seed",
+        "density",
+        "index",
+        "moving",
+        "obstacle_speed",
+        "goal_clearance",
+    ),
+}
+
+
+def cmd_scene(args) -> int:
+    from dataclasses import replace
+
+    from mfi_drake.studies.sweep import SENSORS
+    from mfi_drake.world.fleets import antipodal_circle, crossing_streams
+    from mfi_drake.world.generator import write_scenario
+    from mfi_drake.world.validation import validate_scenario
+
+    defaults = make_parser().parse_args(["scene", args.kind, "--out", args.out])
+    shaping = {name for names in SCENE_OPTIONS.values() for name in names}
+    for name in sorted(shaping - set(SCENE_OPTIONS[args.kind])):
+        given = getattr(args, name)
+        if given != getattr(defaults, name):
+            kinds = " or ".join(k for k, ns in SCENE_OPTIONS.items() if name in ns)
+            flag = "--" + name.replace("_", "-")
+            raise UsageError(f"{flag} = {given}: shapes a {kinds} scene only")
+    if not args.out.endswith((".yaml", ".yml")):
+        raise UsageError(f"--out = {args.out!r}: must name a .yaml file")
+    if args.vehicles is None:
+        args.vehicles = 1 if args.kind == "field" else 8
+    _at_least("--vehicles", args.vehicles, 1)
+    for name in ("radius", "length", "spacing", "duration"):
+        value = getattr(args, name)
+        if value is not None and not (math.isfinite(value) and value > 0.0):
+            raise UsageError(f"--{name} = {value}: must be a finite number > 0")
+    if args.kind == "field":
+        _at_least("--index", args.index, 0)
+        config, tasks = sweep_config(args)
+        scene = tasks.make_field(config, args.density, args.index)
+    else:
+        if args.kind == "circle":
+            scene = antipodal_circle(
+                args.vehicles, args.radius, args.height, args.duration
+            )
+        else:
+            scene = crossing_streams(
+                args.vehicles, args.length, args.spacing, args.height
+            )
+        scene = replace(scene, sensor=SENSORS[args.sensor]())
+    validate_scenario(scene, args.out)
+    header = f"# written by `mfi-drake scene {args.kind}`; fly it: `mfi-drake run`\n"
+    write_scenario(scene, args.out, header=header)
+    count = 1 + len(scene.other_vehicles)
+    print(f"wrote {args.out}: {scene.name}, {count} vehicle(s), {scene.duration:g} s")
+    return 0
+
+
 def _need_dask() -> None:
     try:
         import distributed  # noqa: F401
@@ -237,16 +323,9 @@ def cmd_sweep(args) -> int:
     _need_dask()
     from mfi_drake.app.figures import plot_sweep
     from mfi_drake.config.faults import faults_from_yaml
-    from mfi_drake.studies.fleet_sweep import (
-        FLEET,
-        FleetSweepConfig,
-        fleet_table,
-        fleet_variant,
-    )
+    from mfi_drake.studies.fleet_sweep import FLEET, fleet_table, fleet_variant
     from mfi_drake.studies.sweep import (
-        SINGLE,
         ClusterError,
-        SweepConfig,
         dask_client,
         goal_variant,
         layered,
@@ -258,23 +337,14 @@ def cmd_sweep(args) -> int:
 
     methods = parse_methods(args.methods) if args.methods else list(METHODS)
     _check_sweep_numbers(args)
-    _check_motion_numbers(args)
-    if args.vehicles < 1:
-        raise UsageError(f"--vehicles = {args.vehicles}: must be ≥ 1")
-    fleet = args.vehicles > 1  # studies.fleet_sweep
-    more = {"vehicles": args.vehicles} if fleet else {}
-    config = (FleetSweepConfig if fleet else SweepConfig)(
-        **more,
+    config, tasks = sweep_config(
+        args,
         n=args.n,
-        seed=args.seed,
         methods=methods,
         densities=list(dict.fromkeys(args.density)),
-        sensor=args.sensor,
         out=args.out,
-        moving=args.moving,
-        obstacle_speed=args.obstacle_speed,
-        goal_clearance=args.goal_clearance,
     )
+    fleet = tasks is FLEET
     texts = overrides(args)
     faults = None
     if args.faults is not None:
@@ -293,7 +363,7 @@ def cmd_sweep(args) -> int:
     modify = partial(layered, overrides=texts, faults=faults)
     try:
         with dask_client(args.workers, args.scheduler, methods) as client:
-            run = run_sweep(config, client, modify, tasks=FLEET if fleet else SINGLE)
+            run = run_sweep(config, client, modify, tasks=tasks)
     except KeyboardInterrupt:
         print(
             f"mfi-drake: interrupted; finished flights are in {args.out}/results.jsonl,"
@@ -333,8 +403,12 @@ def _densities(name: str, values: list[float]) -> None:
 def _check_sweep_numbers(args) -> None:
     _at_least("--n", args.n, 1)
     _at_least("--workers", args.workers, 1)
+
+
+def _check_field_numbers(args) -> None:
     _at_least("--seed", args.seed, 0)
-    _densities("--density", args.density)
+    several = isinstance(args.density, list)  # sweep's list, scene's one
+    _densities("--density", args.density if several else [args.density])
     gap = getattr(args, "goal_clearance", None)
     if gap is not None and not (math.isfinite(gap) and gap >= least_goal_gap()):
         raise UsageError(
@@ -375,6 +449,7 @@ def cmd_tune(args) -> int:
 
     methods = parse_methods(args.methods)
     _check_sweep_numbers(args)
+    _check_field_numbers(args)
     _check_motion_numbers(args)
     _check_held_out_numbers(args)
     config = TuneConfig(
@@ -509,6 +584,43 @@ def add_motion(parser: argparse.ArgumentParser, what: str) -> None:
     )
 
 
+def add_random_field(parser: argparse.ArgumentParser, several: bool) -> None:
+    """The options of sweep's random fields (`sweep_config`): --seed,
+    --density (`several`: a list of them), --sensor, --moving,
+    --obstacle-speed, --goal-clearance."""
+    from mfi_drake.world.generator import DEFAULT_DENSITY
+
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the random fields, ≥ 0"
+    )
+    box = "obstacles per m³ of the 8×5×5 m box around the start–goal line"
+    parser.add_argument(
+        "--density",
+        type=float,
+        nargs="+" if several else None,
+        default=[DEFAULT_DENSITY] if several else DEFAULT_DENSITY,
+        help=f"{box}, each ≥ 0; several values sweep them all"
+        if several
+        else f"{box}, ≥ 0",
+    )
+    parser.add_argument(
+        "--sensor",
+        choices=["sphere", "depth"],
+        default="sphere",
+        help="the sensor every vehicle flies with: the paper's sensing sphere "
+        "or the depth camera (docs/depth_camera.md)",
+    )
+    add_motion(parser, "share of each field's obstacles that move")
+    parser.add_argument(
+        "--goal-clearance",
+        type=float,
+        metavar="M",
+        help="add to each field an obstacle whose surface is M metres from the "
+        "goal (a random kind, in a random direction; docs/goals.md); at least "
+        "the collision radius plus the goal margin (default: none)",
+    )
+
+
 def add_overrides(parser: argparse.ArgumentParser) -> None:
     """--set and --override, layered on the scenario in the order given."""
     parser.add_argument(
@@ -568,7 +680,6 @@ def add_workers(parser: argparse.ArgumentParser) -> None:
 def make_parser() -> argparse.ArgumentParser:
     from mfi_drake.studies.compare import PAPER_SCENARIOS
     from mfi_drake.studies.tune import JITTER_AXES, MIN_CANDIDATES
-    from mfi_drake.world.generator import DEFAULT_DENSITY
 
     parser = argparse.ArgumentParser(
         prog="mfi-drake",
@@ -671,43 +782,17 @@ def make_parser() -> argparse.ArgumentParser:
     add_overrides(sweep)
     add_field_count(sweep, 30, "random")
     sweep.add_argument(
-        "--seed", type=int, default=0, help="seed of the random fields, ≥ 0"
-    )
-    sweep.add_argument(
         "--methods",
         help="distinct names or MODULE:NAME, separated by commas, e.g. mfi,apf,gf "
         f"(default: every method of the registry: {','.join(METHODS)})",
     )
-    sweep.add_argument(
-        "--density",
-        type=float,
-        nargs="+",
-        default=[DEFAULT_DENSITY],
-        help="obstacles per m³ of the 8×5×5 m box around the start–goal line, "
-        "each ≥ 0; several values sweep them all",
-    )
-    sweep.add_argument(
-        "--sensor",
-        choices=["sphere", "depth"],
-        default="sphere",
-        help="the sensor every field is flown with: the paper's sensing sphere "
-        "or the depth camera (docs/depth_camera.md)",
-    )
+    add_random_field(sweep, several=True)
     sweep.add_argument(
         "--vehicles",
         type=int,
         default=1,
         help="vehicles per field, ≥ 1, between random start and goal pairs at the "
         "ends of the box, half each way (1: the single-vehicle sweep)",
-    )
-    add_motion(sweep, "share of each field's obstacles that move")
-    sweep.add_argument(
-        "--goal-clearance",
-        type=float,
-        metavar="M",
-        help="add to each field an obstacle whose surface is M metres from the "
-        "goal (a random kind, in a random direction; docs/goals.md); at least "
-        "the collision radius plus the goal margin (default: none)",
     )
     add_workers(sweep)
     sweep.add_argument(
@@ -723,6 +808,63 @@ def make_parser() -> argparse.ArgumentParser:
         "--json", action="store_true", help="print the summary as one JSON object"
     )
     sweep.set_defaults(func=cmd_sweep)
+
+    scene = add_parser(
+        sub,
+        "scene",
+        "write a scenario file of N vehicles: an antipodal circle, crossing "
+        "streams, or a sweep's random field",
+        exit_statuses("the scenario is written, validated as `run` would"),
+        description="Writes a scenario file of N vehicles, validated as `run` "
+        "would, with every obstacle inline: 'circle' puts them evenly on a "
+        "horizontal circle, each flying to the opposite point (all meet in the "
+        "middle); 'streams' makes two streams abreast crossing at right angles; "
+        "'field' is the random field `sweep` flies for --seed, --density, "
+        "--index and --vehicles (1: the single-vehicle sweep's field). Options "
+        "that shape another kind are refused. Fly it with `mfi-drake run FILE`.",
+    )
+    scene.add_argument("kind", choices=list(SCENE_OPTIONS), help="the kind of scene")
+    scene.add_argument(
+        "--vehicles",
+        type=int,
+        help="vehicles, ≥ 1 (default: 8; 1 for field)",
+    )
+    scene.add_argument(
+        "--radius",
+        type=float,
+        metavar="M",
+        help="circle: its radius, > 0 (default: 6 m, or wider so that "
+        "neighbours are 2 m apart along it)",
+    )
+    scene.add_argument(
+        "--duration",
+        type=float,
+        metavar="S",
+        help="circle: simulated seconds, > 0 (default: 5 s per metre of diameter)",
+    )
+    scene.add_argument(
+        "--height", type=float, default=2.0, metavar="M", help="circle, streams: z"
+    )
+    scene.add_argument(
+        "--length",
+        type=float,
+        default=12.0,
+        metavar="M",
+        help="streams: each vehicle's start–goal distance, > 0",
+    )
+    scene.add_argument(
+        "--spacing",
+        type=float,
+        default=1.5,
+        metavar="M",
+        help="streams: between neighbours abreast, > 0",
+    )
+    add_random_field(scene, several=False)
+    scene.add_argument(
+        "--index", type=int, default=0, help="field: which field of the seed, ≥ 0"
+    )
+    scene.add_argument("--out", required=True, help="the .yaml file to write")
+    scene.set_defaults(func=cmd_scene)
 
     diagram = add_parser(
         sub,

@@ -17,6 +17,7 @@ from mfi_drake.world.obstacles import obstacle_distances
 
 CIRCLE_SPACING = 2.0  # [m] least arc between neighbours on an antipodal circle
 CIRCLE_RADIUS = 6.0  # [m] the smallest antipodal circle
+CIRCLE_SECONDS_PER_METRE = 5.0  # [s] an antipodal circle's duration per m of diameter
 FLEET_STREAM = 3  # the random stream of random_pairs
 PAIR_GAP = 1.0  # [m] least distance between two starts, and between two goals
 
@@ -40,11 +41,17 @@ def circle_radius(n: int) -> float:
 
 
 def antipodal_circle(
-    n: int, radius: float | None = None, height: float = 2.0, duration: float = 60.0
+    n: int,
+    radius: float | None = None,
+    height: float = 2.0,
+    duration: float | None = None,
 ) -> sc.Scenario:
     """n vehicles evenly on a horizontal circle (default `circle_radius`),
-    each flying to the point opposite its start: all meet in the middle."""
+    each flying to the point opposite its start: all meet in the middle.
+    Default duration: CIRCLE_SECONDS_PER_METRE per metre of diameter."""
     radius = circle_radius(n) if radius is None else radius
+    if duration is None:
+        duration = CIRCLE_SECONDS_PER_METRE * 2.0 * radius
     ends = []
     for k in range(n):
         a = 2.0 * math.pi * k / n
