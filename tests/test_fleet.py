@@ -181,6 +181,10 @@ def test_scene_field_is_the_field_the_sweep_flies(tmp_path, vehicles):
         (["circle", "--vehicles", "0"], "--vehicles = 0: must be ≥ 1"),
         (["circle", "--radius", "-1"], "--radius = -1.0: must be a finite number > 0"),
         (["field", "--index", "-1"], "--index = -1: must be ≥ 0"),
+        (
+            ["field", "--vehicles", "2", "--goal-clearance", "0.3"],
+            "not with --vehicles",
+        ),
         (["circle", "--radius", "0.5"], "other_vehicles[0].start"),  # too close
     ],
 )

@@ -236,6 +236,13 @@ def sweep_config(args, **more):
     _check_motion_numbers(args)
     _at_least("--vehicles", args.vehicles, 1)
     fleet = args.vehicles > 1
+    if fleet and args.goal_clearance is not None:
+        # random_pairs draws a fleet's goals anew, away from that obstacle.
+        raise UsageError(
+            f"--goal-clearance = {args.goal_clearance}: places an obstacle near "
+            "the one vehicle's goal; not with --vehicles > 1 (a fleet's goals "
+            "are drawn anew)"
+        )
     config = (FleetSweepConfig if fleet else SweepConfig)(
         **({"vehicles": args.vehicles} if fleet else {}),
         seed=args.seed,
