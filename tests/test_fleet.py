@@ -12,7 +12,8 @@ from pydrake.geometry import GeometryInstance, RenderLabel, Rgba, SceneGraph
 from pydrake.geometry import Sphere as DrakeSphere
 from pydrake.math import RigidTransform
 
-from mfi_drake.app.cli import main
+from mfi_drake.app.cli import main, summary_line
+from mfi_drake.app.flight_log import write_flight_log
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion, OtherVehicle
 from mfi_drake.config.scenario import scenario_to_yaml
@@ -268,6 +269,27 @@ def test_a_small_antipodal_swap_reaches_every_goal_without_contact(swap):
             pb = b.positions[np.searchsorted(b.times, common)]
             gaps.append(np.linalg.norm(pa - pb, axis=1).min())
     assert least_separation(flights) <= min(gaps) - 2 * swap.collision_radius + 1e-12
+
+
+def test_a_fleets_log_holds_every_vehicle_and_its_line_the_fleets_outcome(
+    swap, tmp_path
+):
+    path = str(tmp_path / "trajectory.npz")
+    write_flight_log(path, swap)
+    with np.load(path) as log:
+        np.testing.assert_array_equal(log["state"], swap.log["state"])
+        for k, other in enumerate(swap.others, 1):
+            np.testing.assert_array_equal(log[f"vehicle{k}_times"], other.times)
+            for name, logged in other.log.items():
+                np.testing.assert_array_equal(log[f"vehicle{k}_{name}"], logged)
+        assert f"vehicle{len(swap.others) + 1}_times" not in log
+    sep = swap.metrics["min_separation"]
+    line = summary_line(swap.metrics)
+    assert (
+        f"SUCCESS; fleet of 3: 3 reached, 0 collided, least separation {sep:.3f}"
+        in line
+    )
+    assert "first vehicle: final error" in line
 
 
 def _meeting(offset: float) -> sc.Scenario:

@@ -43,7 +43,8 @@ def _json_safe(obj):
 
 
 def summary_line(metrics: dict) -> str:
-    """One human line with the outcome and the key numbers of a run."""
+    """One human line with the outcome and the key numbers of a run; for a
+    fleet, its outcome and least separation, then the first vehicle's."""
     outcome = {
         "success": "SUCCESS",
         "collision": "COLLISION",
@@ -51,9 +52,17 @@ def summary_line(metrics: dict) -> str:
     }[metrics["outcome"]]
     clearance = metrics["min_clearance"]
     conv = metrics["convergence_time"]
+    fleet = ""
+    if "vehicles" in metrics:
+        vehicles = metrics["vehicles"]
+        fleet = (
+            f"fleet of {len(vehicles)}: {sum(v['reached'] for v in vehicles)} "
+            f"reached, {sum(v['collided'] for v in vehicles)} collided, least "
+            f"separation {metrics['min_separation']:.3f} m; first vehicle: "
+        )
     return (
         f"{metrics['scenario']} [{metrics['method']}, {metrics['sensor']}]: {outcome}; "
-        f"final error {metrics['final_error']:.3f} m, "
+        f"{fleet}final error {metrics['final_error']:.3f} m, "
         f"min clearance {'n/a' if clearance is None else f'{clearance:.3f} m'}, "
         f"path {metrics['path_length']:.2f} m, "
         f"converged {'never' if conv is None else f'at {conv:.2f} s'}, "
