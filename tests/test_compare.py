@@ -141,6 +141,23 @@ def test_results_table_has_a_row_per_run():
     assert "12.00 s" in lines[2] and "–" in lines[3]
 
 
+def test_a_fleets_row_is_over_its_vehicles():
+    one = {"reached": True, "collided": False, "path_length": 5.0}
+    one |= {"convergence_time": 7.0, "min_clearance": None, "final_error": 0.01}
+    two = {"reached": False, "collided": True, "path_length": 3.0}
+    two |= {"convergence_time": None, "min_clearance": -0.01, "final_error": 2.0}
+    fleet = metrics("f", "mfi") | {"vehicles": [one, two], "min_separation": 0.1}
+    lines = results_table([metrics("a", "gf"), fleet]).splitlines()
+    assert lines[0].endswith("| least separation |")
+    assert lines[2].endswith("| – |")  # a single vehicle has none
+    # By hand: 1 of 2 reached and collided, 5 + 3 m, one never converged.
+    assert lines[3] == (
+        "| f | MFI | 1/2 | 1/2 | 8.00 m | – | -0.01 m | 2.00 m | 0.100 m |"
+    )
+    fleet["min_separation"] = -0.02  # two of its vehicles met
+    assert "| 1/2 | 1/2, touched |" in results_table([fleet])
+
+
 def test_reproduce_writes_every_figure_and_results(tmp_path, capsys):
     # The paper's scenarios, cut to 0.5 s: the files and what is printed, not
     # the outcomes; two processes fly them.

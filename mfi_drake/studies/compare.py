@@ -28,23 +28,52 @@ def _number(value, unit: str) -> str:
     return "–" if value is None else f"{value:.2f} {unit}"
 
 
+def fleet_numbers(m: dict) -> dict:
+    """A fleet flight's table numbers over its vehicles: how many reached
+    and collided with an obstacle ("k/N", "touched" added where two vehicles
+    met), the total path, the last convergence (None if one never
+    converged), the least clearance and the largest final error."""
+    vehicles = m["vehicles"]
+    n = len(vehicles)
+    clearances = [v["min_clearance"] for v in vehicles]
+    times = [v["convergence_time"] for v in vehicles]
+    touched = ", touched" if m["min_separation"] <= 0.0 else ""
+    return {
+        "reached": f"{sum(v['reached'] for v in vehicles)}/{n}",
+        "collided": f"{sum(v['collided'] for v in vehicles)}/{n}{touched}",
+        "path_length": sum(v["path_length"] for v in vehicles),
+        "convergence_time": None if None in times else max(times),
+        "min_clearance": min((c for c in clearances if c is not None), default=None),
+        "final_error": max(v["final_error"] for v in vehicles),
+    }
+
+
 def results_table(metrics: list[dict]) -> str:
-    """A Markdown table of runs: scenario, method, outcome and the numbers."""
+    """A Markdown table of runs: scenario, method, outcome and the numbers;
+    a fleet's row is over its vehicles (`fleet_numbers`), and where there is
+    one a last column gives each fleet's least separation."""
+    fleets = any("vehicles" in m for m in metrics)
     lines = [
         "| scenario | method | reached | collided | path length | "
-        "convergence time | min clearance | final error |",
-        "|---|---|---|---|---|---|---|---|",
+        "convergence time | min clearance | final error |"
+        + (" least separation |" if fleets else ""),
+        "|---|---|---|---|---|---|---|---|" + ("---|" if fleets else ""),
     ]
     for m in metrics:
-        lines.append(
+        yes_no = {k: "yes" if m[k] else "no" for k in ("reached", "collided")}
+        row = fleet_numbers(m) if "vehicles" in m else m | yes_no
+        line = (
             f"| {m['scenario']} | {appearance(m['method'])[0]} "
-            f"| {'yes' if m['reached'] else 'no'} "
-            f"| {'yes' if m['collided'] else 'no'} "
-            f"| {_number(m['path_length'], 'm')} "
-            f"| {_number(m['convergence_time'], 's')} "
-            f"| {_number(m['min_clearance'], 'm')} "
-            f"| {_number(m['final_error'], 'm')} |"
+            f"| {row['reached']} | {row['collided']} "
+            f"| {_number(row['path_length'], 'm')} "
+            f"| {_number(row['convergence_time'], 's')} "
+            f"| {_number(row['min_clearance'], 'm')} "
+            f"| {_number(row['final_error'], 'm')} |"
         )
+        if fleets:
+            separation = m.get("min_separation")
+            line += f" {'–' if separation is None else f'{separation:.3f} m'} |"
+        lines.append(line)
     return "\n".join(lines)
 
 
