@@ -13,6 +13,7 @@ from pydrake.geometry import Sphere as DrakeSphere
 from pydrake.math import RigidTransform
 
 from mfi_drake.app.cli import main, summary_line
+from mfi_drake.app.figures import plot_fleet_sweep
 from mfi_drake.app.flight_log import write_flight_log
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion, OtherVehicle
@@ -423,6 +424,9 @@ def test_fleet_sweep_records_every_vehicle(tmp_path, threads_client):
     stats = run.summary["methods"]["mfi"]["0.1"]
     assert stats["n"] == 1 and stats["deadlock_fields"]["k"] == 1
     assert "| mfi | 0.1 | 1 |" in (tmp_path / "table.md").read_text()
+    # Its figure draws where no vehicle succeeded (no path ratios).
+    plot_fleet_sweep(run.summary, str(tmp_path / "sweep.png"))
+    assert (tmp_path / "sweep.png").read_bytes().startswith(b"\x89PNG")
 
 
 def test_sweep_rejects_a_fleet_of_none(tmp_path, capsys):

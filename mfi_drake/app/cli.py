@@ -337,7 +337,7 @@ def _need_dask() -> None:
 
 def cmd_sweep(args) -> int:
     _need_dask()
-    from mfi_drake.app.figures import plot_sweep
+    from mfi_drake.app.figures import plot_fleet_sweep, plot_sweep
     from mfi_drake.config.faults import faults_from_yaml
     from mfi_drake.studies.fleet_sweep import FLEET, fleet_table, fleet_variant
     from mfi_drake.studies.sweep import (
@@ -389,16 +389,15 @@ def cmd_sweep(args) -> int:
         return 130
     except ClusterError as e:  # unreachable, refused, no workers, ...
         raise UsageError(str(e)) from None
-    if not fleet:
-        plot_sweep(run.summary, os.path.join(args.out, "sweep.png"))
+    plot = plot_fleet_sweep if fleet else plot_sweep
+    plot(run.summary, os.path.join(args.out, "sweep.png"))
     if args.json:
         print(json.dumps(_json_safe(run.summary)))
     else:
         print((fleet_table if fleet else summary_table)(run.summary))
         print(
             f"flew {run.ran}, found {run.skipped} done; wrote {args.out}/: "
-            f"results.jsonl, summary.json, table.md, {'' if fleet else 'sweep.png, '}"
-            "failures/"
+            "results.jsonl, summary.json, table.md, sweep.png, failures/"
         )
     for line in run.lost:
         print(f"mfi-drake: not run (rerun to retry): {line}", file=sys.stderr)

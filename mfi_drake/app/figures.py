@@ -14,6 +14,7 @@ place a figure reaches the disk, atomically.
 import numpy as np
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from mfi_drake.config.dynamic import moves
@@ -278,4 +279,88 @@ def plot_sweep(summary: dict, path: str) -> None:
         f"{summary['config']['n']} fields per density)"
     )
     fig.tight_layout()
+    write_figure(fig, path)
+
+
+# What a fleet sweep counts per field, with the hatch that marks it.
+FLEET_OUTCOMES = (
+    ("success_rate", "success_rate_ci95", "every vehicle succeeds", ""),
+    ("vehicle_contact_fields", None, "vehicle–vehicle contact", "//"),
+    ("obstacle_collision_fields", None, "vehicle–obstacle collision", "xx"),
+    ("deadlock_fields", None, "deadlock (time-out)", ".."),
+)
+
+
+def plot_fleet_sweep(summary: dict, path: str) -> None:
+    """A fleet sweep (`studies.fleet_sweep`): per method and density, the
+    share of fields of each outcome (95 % Wilson CI), the least separation
+    (median field and least of all) and the path ratio (median with its CI,
+    90th percentile)."""
+    fig = Figure(figsize=(13, 4.4))
+    ax_o, ax_s, ax_r = fig.subplots(1, 3)
+    groups = [
+        (method, float(d), s)
+        for method, by_density in summary["methods"].items()
+        for d, s in by_density.items()
+        if s["n"]
+    ]
+    several = len({d for _, d, _ in groups}) > 1
+    names = [
+        appearance(m)[0] + (f"\n{d:g} /m³" if several else "") for m, d, _ in groups
+    ]
+    x = np.arange(len(groups))
+    width = 0.8 / len(FLEET_OUTCOMES)
+    for k, (key, ci_key, _, hatch) in enumerate(FLEET_OUTCOMES):
+        shares, lows, highs = [], [], []
+        for _, _, s in groups:
+            share, ci = (
+                (s[key], s[ci_key]) if ci_key else (s[key]["rate"], s[key]["ci95"])
+            )
+            shares.append(share)
+            lows.append(share - ci[0])
+            highs.append(ci[1] - share)
+        ax_o.bar(
+            x + (k - 1.5) * width,
+            shares,
+            width,
+            yerr=[lows, highs],
+            capsize=2,
+            color=[appearance(m)[1] for m, _, _ in groups],
+            alpha=1.0 if k == 0 else 0.45,
+            hatch=hatch,
+            edgecolor="black",
+            linewidth=0.5,
+        )
+    ax_o.set_ylim(0.0, 1.05)
+    ax_o.set_ylabel("share of fields (95% Wilson CI)")
+    # The bars take their method's colour: the legend says what each hatch counts.
+    hatches = [
+        Patch(facecolor="lightgrey", edgecolor="black", hatch=hatch, label=label)
+        for _, _, label, hatch in FLEET_OUTCOMES
+    ]
+    fig.legend(handles=hatches, loc="lower center", ncol=4, fontsize=8)
+    for i, (m, _, s) in enumerate(groups):
+        colour = appearance(m)[1]
+        if s["median_min_separation"] is not None:
+            ax_s.plot(i, s["median_min_separation"], "o", color=colour)
+            ax_s.plot(i, s["least_min_separation"], "v", color=colour, mfc="none")
+        if s["median_path_ratio"] is not None:
+            ci = s["median_path_ratio_ci95"]
+            med = s["median_path_ratio"]
+            ax_r.errorbar(
+                i, med, yerr=[[med - ci[0]], [ci[1] - med]], color=colour, marker="o"
+            )
+            ax_r.plot(i, s["p90_path_ratio"], "^", color=colour, mfc="none")
+    ax_s.axhline(0.0, color="black", lw=0.8)
+    ax_s.set_ylabel("least separation of a field [m]\n(o median field, ▽ least)")
+    ax_r.set_ylabel("path length / shortest path\n(o median with 95% CI, △ 90th pct)")
+    for ax in (ax_o, ax_s, ax_r):
+        ax.set_xticks(x, names, fontsize=8)
+        ax.grid(alpha=0.3, axis="y")
+    config = summary["config"]
+    fig.suptitle(
+        f"{config['vehicles']} vehicles a field: {summary['flights']} fleets on "
+        f"random fields (seed {config['seed']}, {config['n']} fields per density)"
+    )
+    fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
     write_figure(fig, path)
