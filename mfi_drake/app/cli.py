@@ -16,6 +16,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from collections.abc import Callable
 from functools import partial
 
 from mfi_drake.config.scenario import ScenarioError, read_override
@@ -279,7 +280,9 @@ SCENE_OPTIONS = {
 }
 
 
-def cmd_scene(args) -> int:
+def cmd_scene(default_of: Callable[[str], object], args) -> int:
+    """`default_of`: the scene parser's default of an option (its get_default),
+    which tells an option given from one left alone."""
     from dataclasses import replace
 
     from mfi_drake.studies.sweep import SENSORS
@@ -287,11 +290,10 @@ def cmd_scene(args) -> int:
     from mfi_drake.world.generator import write_scenario
     from mfi_drake.world.validation import validate_scenario
 
-    defaults = make_parser().parse_args(["scene", args.kind, "--out", args.out])
     shaping = {name for names in SCENE_OPTIONS.values() for name in names}
     for name in sorted(shaping - set(SCENE_OPTIONS[args.kind])):
         given = getattr(args, name)
-        if given != getattr(defaults, name):
+        if given != default_of(name):
             kinds = " or ".join(k for k, ns in SCENE_OPTIONS.items() if name in ns)
             flag = "--" + name.replace("_", "-")
             raise UsageError(f"{flag} = {given}: shapes a {kinds} scene only")
@@ -879,7 +881,7 @@ def make_parser() -> argparse.ArgumentParser:
         "--index", type=int, default=0, help="field: which field of the seed, ≥ 0"
     )
     scene.add_argument("--out", required=True, help="the .yaml file to write")
-    scene.set_defaults(func=cmd_scene)
+    scene.set_defaults(func=partial(cmd_scene, scene.get_default))
 
     diagram = add_parser(
         sub,

@@ -310,6 +310,7 @@ def plot_fleet_sweep(summary: dict, path: str) -> None:
     ]
     x = np.arange(len(groups))
     width = 0.8 / len(FLEET_OUTCOMES)
+    middle = (len(FLEET_OUTCOMES) - 1) / 2  # the bars centred on each group
     for k, (key, ci_key, _, hatch) in enumerate(FLEET_OUTCOMES):
         shares, lows, highs = [], [], []
         for _, _, s in groups:
@@ -320,7 +321,7 @@ def plot_fleet_sweep(summary: dict, path: str) -> None:
             lows.append(share - ci[0])
             highs.append(ci[1] - share)
         ax_o.bar(
-            x + (k - 1.5) * width,
+            x + (k - middle) * width,
             shares,
             width,
             yerr=[lows, highs],
