@@ -14,6 +14,11 @@ process's) and of wall time, and the fleet's over the reference's: the CPU
 ratio is the work a vehicle-second costs, the wall ratio what the machine
 delivers (on a shared machine the CPU ratio is the steadier).
 
+Then, for the other design (one diagram and one error-controlled integrator
+for the whole fleet): the steps such an integrator would take, estimated
+from the flights just flown (`shared_steps`), and the CPU it could spend a
+vehicle and step and still deliver 0.75 of the reference's rate.
+
 Rates: the shipped swarms and three random fields of four vehicles (the
 multi-vehicle sweep's, seed 0) flown at each exchange rate; printed:
 outcome, least separation, and each vehicle's path length, with the
@@ -45,6 +50,23 @@ def speeds(flight) -> tuple[float, float]:
     """Vehicle-seconds per CPU second and per wall second."""
     vehicle_seconds = (1 + len(flight.others)) * flight.metrics["sim_time"]
     return vehicle_seconds / flight.cpu_time, vehicle_seconds / flight.wall_time
+
+
+# The window [s] within which `shared_steps` counts each vehicle's steps.
+WINDOW = 0.05
+
+
+def shared_steps(flights: list, duration: float) -> int:
+    """The steps one error-controlled integrator of the whole fleet would
+    take, estimated from its vehicles' separately integrated flights:
+    Drake's error norm is the largest over the state's entries, so such a
+    step is as short as the shortest of the vehicles' steps at that time.
+    Per WINDOW, the most steps any vehicle took there; summed."""
+    edges = np.arange(0.0, duration + WINDOW, WINDOW)
+    most = np.zeros(len(edges) - 1)
+    for flight in flights:
+        most = np.maximum(most, np.histogram(np.unique(flight.times)[1:], edges)[0])
+    return int(most.sum())
 
 
 def say(lines: list[str], line: str) -> None:
@@ -79,6 +101,13 @@ def scaling(sizes: list[int], processes: int, lines: list[str]) -> list[dict]:
             "ratio_wall": wall / wall_ref,
             "separation": separation,
         }
+        row["steps"] = np.mean([f.metrics["steps"] for f in (flown, *flown.others)])
+        row["steps_ref"] = reference.metrics["steps"]
+        row["shared"] = shared_steps([flown, *flown.others], flown.metrics["sim_time"])
+        # µs of CPU a lone step costs, and what one step of one vehicle
+        # may cost in a shared integrator for 0.75 of the lone rate.
+        row["step_ref"] = 1e6 * reference.cpu_time / row["steps_ref"]
+        row["budget"] = row["step_ref"] * row["steps_ref"] / row["shared"] / 0.75
         rows.append(row)
         sep = "–" if separation is None else f"{separation:.3f}"
         say(
@@ -88,6 +117,24 @@ def scaling(sizes: list[int], processes: int, lines: list[str]) -> list[dict]:
             f"| {row['ratio_wall']:.2f} |",
         )
     return rows
+
+
+def one_integrator(rows: list[dict], lines: list[str]) -> None:
+    """The table of what one integrator for the whole fleet would allow."""
+    say(
+        lines,
+        "| N | steps: alone | a fleet vehicle (mean) | one integrator (est.) "
+        "| µs of CPU a lone step | allowed a vehicle and shared step "
+        "| of a lone step |",
+    )
+    say(lines, "|---|---|---|---|---|---|---|")
+    for r in rows:
+        say(
+            lines,
+            f"| {r['n']} | {r['steps_ref']} | {r['steps']:.0f} | {r['shared']} "
+            f"| {r['step_ref']:.0f} | {r['budget']:.0f} "
+            f"| {r['budget'] / r['step_ref']:.2f} |",
+        )
 
 
 def rates(hz: list[float], lines: list[str]) -> None:
@@ -159,6 +206,8 @@ def main(argv: list[str] | None = None) -> None:
     if sizes:
         lines = [f"{args.processes} processes, {os.cpu_count()} cores:", ""]
         rows = scaling(sizes, args.processes, lines)
+        say(lines, "")
+        one_integrator(rows, lines)
         if args.figure:
             figure(rows, args.figure)
         if args.page:

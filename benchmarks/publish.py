@@ -43,6 +43,7 @@ PAGES = [
     "docs/depth_camera.md",
     "docs/robustness.md",
     "docs/fleets.md",
+    "docs/goals.md",
 ]
 RESULTS = "docs/results"
 FLEETS = ("fleet_4", "fleet_8", "fleet_8_methods")  # the multi-vehicle sweeps
@@ -362,6 +363,11 @@ def robustness_table(root: str) -> str:
     )
 
 
+def readme_field_table(root: str) -> str:
+    """The README's example field, bare and wrapped, as the sweep wrote it."""
+    return markdown_table(read(root, RESULTS, "readme_field", "table.md"))
+
+
 def fleet_tables(root: str) -> str:
     """The multi-vehicle sweeps (`mfi-drake sweep --vehicles N`), one table
     a fleet size, as the sweep writes them."""
@@ -584,6 +590,7 @@ TABLES: dict[str, Callable[[str], str]] = {
     "camera": camera_table,
     "robustness_state": robustness_table,
     "fleet": fleet_tables,
+    "readme_field": readme_field_table,
 }
 
 

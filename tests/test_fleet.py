@@ -2,7 +2,9 @@
 over goals, a small antipodal swap and the multi-vehicle sweep."""
 
 import dataclasses
+import importlib.util
 import math
+import os
 import sys
 import warnings
 
@@ -488,3 +490,31 @@ def test_a_field_failing_in_another_process_fails_the_fleet_as_at_home():
             simulate(scene, here, processes=processes)
         errors.append((type(caught.value), str(caught.value)))
     assert errors[0] == errors[1] and "on purpose" in errors[0][1]
+
+
+def _benchmark(name: str):
+    path = os.path.join(os.path.dirname(__file__), "..", "benchmarks", f"{name}.py")
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_one_integrators_steps_follow_the_busiest_vehicle_in_each_window():
+    scaling = _benchmark("fleet_scaling")
+    w = scaling.WINDOW
+
+    def flight(times):
+        return dataclasses.make_dataclass("F", ["times"])(np.array(times))
+
+    # Steps counted in the window where they end. A: 5 steps in the first
+    # window, 1 in the second; B: 1, then 4. One integrator: 5 + 4, not the
+    # 6 + 5 of the two apart.
+    a = flight([0.0, *(w * np.array([0.1, 0.3, 0.5, 0.7, 0.9])), 1.5 * w])
+    b = flight([0.0, 0.5 * w, *(w * np.array([1.2, 1.4, 1.6, 1.8]))])
+    assert scaling.shared_steps([a, b], 2 * w) == 5 + 4
+    assert scaling.shared_steps([a], 2 * w) == 6
+    assert scaling.shared_steps([b], 2 * w) == 5
+    # A time logged twice (the step that ends at an exchange) is one step.
+    twice = flight([0.0, w / 2, w / 2, w])
+    assert scaling.shared_steps([twice], w) == 2
