@@ -204,7 +204,12 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     sizes = [int(n) for n in args.sizes.split(",") if n]
     if sizes:
-        lines = [f"{args.processes} processes, {os.cpu_count()} cores:", ""]
+        load = os.getloadavg()[0]  # the wall rates need an idle machine
+        lines = [
+            f"{args.processes} processes, {os.cpu_count()} cores, "
+            f"load average {load:.1f} at the start:",
+            "",
+        ]
         rows = scaling(sizes, args.processes, lines)
         say(lines, "")
         one_integrator(rows, lines)
