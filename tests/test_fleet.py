@@ -20,6 +20,7 @@ from mfi_drake.app.flight_log import write_flight_log
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion, OtherVehicle
 from mfi_drake.config.scenario import scenario_to_yaml
+from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import vehicle_scenarios
 from mfi_drake.flight.simulation import least_separation, simulate
 from mfi_drake.maths.layout import obstacle_signal, readings
@@ -518,3 +519,23 @@ def test_one_integrators_steps_follow_the_busiest_vehicle_in_each_window():
     # A time logged twice (the step that ends at an exchange) is one step.
     twice = flight([0.0, w / 2, w / 2, w])
     assert scaling.shared_steps([twice], w) == 2
+
+
+def test_the_reduced_fleet_chain_hovers_at_its_goals_and_turns_without_work():
+    arrays = _benchmark("fleet_arrays")
+    goals = np.array([[0.0, 0.0, 2.0], [3.0, 0.0, 2.0], [0.0, 3.0, 2.0]])
+    chain = arrays.ReducedFleetChain(goals)
+    x = np.zeros((3, 12))
+    x[:, 0:3] = goals
+    weight = VEHICLES["drake_default"].mass * 9.81
+    np.testing.assert_allclose(chain.rotor_forces(x), weight / 4, rtol=1e-12)
+    # Two vehicles closing head-on: point-symmetric about their midpoint, as
+    # the rule of the road is (each turns right), and ⟂ v: no work.
+    x = np.zeros((2, 12))
+    x[0, 0:3], x[0, 6:9] = [0.0, 0.0, 2.0], [1.0, 0.0, 0.0]
+    x[1, 0:3], x[1, 6:9] = [1.2, 0.05, 2.0], [-1.0, 0.0, 0.0]
+    pair = arrays.ReducedFleetChain(np.array([[9.0, 0.0, 2.0], [-9.0, 0.0, 2.0]]))
+    F_o = pair.obstacle_force(x)
+    assert np.linalg.norm(F_o[0]) > 0.1
+    np.testing.assert_allclose(F_o[1], -F_o[0], atol=1e-12)
+    np.testing.assert_allclose(np.einsum("ij,ij->i", F_o, x[:, 6:9]), 0.0, atol=1e-12)
