@@ -589,6 +589,7 @@ TABLES: dict[str, Callable[[str], str]] = {
     "claims": claims_table,
     "ablation": ablation_table,
     "camera": camera_table,
+    "robustness": lambda root: robustness_table(root, "robustness"),
     "robustness_state": lambda root: robustness_table(root, "robustness_state_h_miss"),
     "fleet": fleet_tables,
     "readme_field": readme_field_table,
