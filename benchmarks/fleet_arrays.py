@@ -28,10 +28,8 @@ import argparse
 import os
 import sys
 import time
-from dataclasses import replace
 
 import numpy as np
-from pydrake.examples import QuadrotorPlant
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import Demultiplexer, Multiplexer
 
@@ -40,14 +38,14 @@ from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import SphereSensor
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_section
-from mfi_drake.flight.diagram import build_diagram
+from mfi_drake.flight.diagram import build_diagram, make_plant
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import OBSTACLE_COUNT, STATE_SIZE
 from mfi_drake.maths.quadcopter import GRAVITY, attitude_gains, mixer_matrix
-from mfi_drake.world.fleets import antipodal_circle, with_vehicles
+from mfi_drake.world.fleets import antipodal_circle
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from fleet_scaling import shared_steps  # noqa: E402
+from fleet_scaling import alone, shared_steps  # noqa: E402
 
 ROTORS = 4
 
@@ -160,15 +158,7 @@ def fleet_diagram(scene) -> tuple:
     forces = builder.AddSystem(Demultiplexer([ROTORS] * n))
     chain = builder.AddSystem(ReducedFleetChain(np.array([g for _, g in ends])))
     for i in range(n):
-        plant = builder.AddSystem(
-            QuadrotorPlant(
-                vehicle.mass,
-                vehicle.arm_length,
-                vehicle.inertia_matrix(),
-                vehicle.kF,
-                vehicle.kM,
-            )
-        )
+        plant = builder.AddSystem(make_plant(vehicle))
         builder.Connect(plant.get_output_port(0), states.get_input_port(i))
         builder.Connect(forces.get_output_port(i), plant.get_input_port(0))
     builder.Connect(states.get_output_port(0), chain.get_input_port(0))
@@ -226,11 +216,11 @@ def main(argv: list[str] | None = None) -> None:
     ]
     for n in [int(s) for s in args.sizes.split(",") if s]:
         scene = antipodal_circle(n)
-        alone = with_vehicles(replace(scene, name="alone"), [(scene.start, scene.goal)])
-        lone_steps = simulate(alone).metrics["steps"]
+        lone = alone(scene)
+        lone_steps = simulate(lone).metrics["steps"]
         fleet = simulate(scene)
         steps = shared_steps([fleet, *fleet.others], fleet.metrics["sim_time"])
-        t_lone = lone_derivative_time(alone)
+        t_lone = lone_derivative_time(lone)
         t_fleet = derivative_time(*fleet_diagram(scene))
         ratio = lone_steps * t_lone * n / (steps * t_fleet)
         lines.append(

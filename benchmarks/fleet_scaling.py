@@ -69,6 +69,11 @@ def shared_steps(flights: list, duration: float) -> int:
     return int(most.sum())
 
 
+def alone(fleet):
+    """The reference: the fleet's own vehicle flying its diameter alone."""
+    return with_vehicles(replace(fleet, name="alone"), [(fleet.start, fleet.goal)])
+
+
 def say(lines: list[str], line: str) -> None:
     """Prints a line of a table and keeps it for --page."""
     print(line, flush=True)
@@ -85,8 +90,7 @@ def scaling(sizes: list[int], processes: int, lines: list[str]) -> list[dict]:
     rows = []
     for n in sizes:
         fleet = antipodal_circle(n)
-        alone = with_vehicles(replace(fleet, name="alone"), [(fleet.start, fleet.goal)])
-        reference = simulate(alone)
+        reference = simulate(alone(fleet))
         flown = simulate(fleet, processes=processes)
         cpu, wall = speeds(flown)
         cpu_ref, wall_ref = speeds(reference)
@@ -101,9 +105,10 @@ def scaling(sizes: list[int], processes: int, lines: list[str]) -> list[dict]:
             "ratio_wall": wall / wall_ref,
             "separation": separation,
         }
-        row["steps"] = np.mean([f.metrics["steps"] for f in (flown, *flown.others)])
+        vehicles = [flown, *flown.others]
+        row["steps"] = np.mean([f.metrics["steps"] for f in vehicles])
         row["steps_ref"] = reference.metrics["steps"]
-        row["shared"] = shared_steps([flown, *flown.others], flown.metrics["sim_time"])
+        row["shared"] = shared_steps(vehicles, flown.metrics["sim_time"])
         # µs of CPU a lone step costs, and what one step of one vehicle
         # may cost in a shared integrator for 0.75 of the lone rate.
         row["step_ref"] = 1e6 * reference.cpu_time / row["steps_ref"]

@@ -2,9 +2,7 @@
 over goals, a small antipodal swap and the multi-vehicle sweep."""
 
 import dataclasses
-import importlib.util
 import math
-import os
 import sys
 import warnings
 
@@ -42,6 +40,8 @@ from mfi_drake.world.validation import (
     load_scenario,
     validate_scenario,
 )
+
+from .conftest import load_benchmark
 
 
 # --- the exchange ---------------------------------------------------------------
@@ -493,16 +493,8 @@ def test_a_field_failing_in_another_process_fails_the_fleet_as_at_home():
     assert errors[0] == errors[1] and "on purpose" in errors[0][1]
 
 
-def _benchmark(name: str):
-    path = os.path.join(os.path.dirname(__file__), "..", "benchmarks", f"{name}.py")
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_one_integrators_steps_follow_the_busiest_vehicle_in_each_window():
-    scaling = _benchmark("fleet_scaling")
+    scaling = load_benchmark("fleet_scaling")
     w = scaling.WINDOW
 
     def flight(times):
@@ -522,7 +514,7 @@ def test_one_integrators_steps_follow_the_busiest_vehicle_in_each_window():
 
 
 def test_the_reduced_fleet_chain_hovers_at_its_goals_and_turns_without_work():
-    arrays = _benchmark("fleet_arrays")
+    arrays = load_benchmark("fleet_arrays")
     goals = np.array([[0.0, 0.0, 2.0], [3.0, 0.0, 2.0], [0.0, 3.0, 2.0]])
     chain = arrays.ReducedFleetChain(goals)
     x = np.zeros((3, 12))
