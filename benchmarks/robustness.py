@@ -32,10 +32,12 @@ from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import ScenarioError
 from mfi_drake.files import write_json, write_text
 from mfi_drake.studies.sweep import (
+    ClusterError,
     SweepConfig,
     dask_client,
     layered,
     rate_cell,
+    require_dask,
     run_sweep,
     variant_name,
 )
@@ -147,7 +149,8 @@ def main() -> None:
     methods = args.methods.split(",")
     try:
         layers = overrides(args)
-    except ScenarioError as e:
+        require_dask()
+    except (ScenarioError, ClusterError) as e:
         parser.error(str(e))
     cells = [("none", None, None)] + [
         (name, level, faults)

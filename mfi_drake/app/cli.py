@@ -329,12 +329,12 @@ def cmd_scene(default_of: Callable[[str], object], args) -> int:
 
 
 def _need_dask() -> None:
+    from mfi_drake.studies.sweep import ClusterError, require_dask
+
     try:
-        import distributed  # noqa: F401
-    except ImportError:
-        raise UsageError(
-            "sweep and tune need Dask distributed: pip install 'mfi_drake[sweep]'"
-        ) from None
+        require_dask()
+    except ClusterError as e:
+        raise UsageError(str(e)) from None
 
 
 def cmd_sweep(args) -> int:

@@ -388,6 +388,17 @@ class ClusterError(RuntimeError):
     a user's field that a worker cannot import); one line for the user."""
 
 
+def require_dask() -> None:
+    """Raises ClusterError, before anything is flown, where Dask distributed
+    (the `sweep` extra) is not installed."""
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise ClusterError(
+            "sweep and tune need Dask distributed: pip install 'mfi_drake[sweep]'"
+        ) from None
+
+
 WORKER_WAIT = 60.0  # s a run waits for a worker, at its start or when all left
 
 
