@@ -122,10 +122,11 @@ class NoClusterError(Exception):
     """Raised in place of starting Dask: the command got that far."""
 
 
-def test_tune_warns_once_when_it_has_no_held_out_phase(tmp_path, capsys, monkeypatch):
-    def no_cluster(*args):
-        raise NoClusterError
+def no_cluster(*args):
+    raise NoClusterError
 
+
+def test_tune_warns_once_when_it_has_no_held_out_phase(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(sweep, "dask_client", no_cluster)
     args = ["tune", "--methods", "mfi", "--out", str(tmp_path)]
     for extra, warned in (([], True), (["--held-out-seed", "5"], False)):
@@ -155,3 +156,44 @@ def test_run_exits_1_on_a_failed_flight_and_writes_its_outputs(
     assert json.loads(capsys.readouterr().out)["outcome"] == outcome
     assert (tmp_path / "trajectory.png").stat().st_size > 10_000
     assert (tmp_path / "trajectory.npz").stat().st_size > 1_000
+
+
+@pytest.mark.parametrize(
+    "command, flag, target, words",
+    [
+        ("run", "--out", "a_file", "is a file, not a directory"),
+        ("compare", "--out", "a_file/sub", "a_file is not a directory"),
+        ("run", "--html", "a_dir.html", "is a directory"),
+        ("analyze", "--out", "a_file/x/y", "a_file is not a directory"),
+        ("diagram", "--out", "a_dir.svg", "is a directory"),
+    ],
+)
+def test_an_output_that_cannot_be_written_is_refused_before_any_flight(
+    tmp_path, capsys, command, flag, target, words
+):
+    (tmp_path / "a_file").write_text("")
+    made = ["a_dir.html", "a_dir.svg", "a_file"]
+    for name in made[:2]:
+        (tmp_path / name).mkdir()
+    args = [command, PLANAR_WALL, flag, str(tmp_path / target)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{flag} = " in err and words in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == made
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_a_bad_value_from_a_layer_names_that_layer(
+    tmp_path, capsys, monkeypatch, command
+):
+    """The file says duration: 40; the error must blame the --set, and the
+    sweep must refuse before its cluster starts or its directory exists."""
+    monkeypatch.setattr(sweep, "dask_client", no_cluster)
+    out = tmp_path / "out"
+    where = [PLANAR_WALL] if command == "run" else ["--n", "1"]
+    args = [command, *where, "--set", "duration: -1", "--out", str(out)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "with --set 'duration: -1': duration = -1.0: must be" in err, err
+    assert not out.exists()

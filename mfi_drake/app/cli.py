@@ -19,10 +19,14 @@ import textwrap
 from collections.abc import Callable
 from functools import partial
 
-from mfi_drake.config.scenario import ScenarioError, read_override
+from mfi_drake.config.scenario import ScenarioError, layered_name, read_override
 from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
 from mfi_drake.systems.navigation import UserFieldError
-from mfi_drake.world.validation import least_goal_gap, load_scenario
+from mfi_drake.world.validation import (
+    least_goal_gap,
+    load_scenario,
+    validate_scenario,
+)
 
 EXIT_BAD_INPUT = 2
 EXIT_FLIGHT_FAILED = 1
@@ -288,7 +292,6 @@ def cmd_scene(default_of: Callable[[str], object], args) -> int:
     from mfi_drake.studies.sweep import SENSORS
     from mfi_drake.world.fleets import antipodal_circle, crossing_streams
     from mfi_drake.world.generator import write_scenario
-    from mfi_drake.world.validation import validate_scenario
 
     shaping = {name for names in SCENE_OPTIONS.values() for name in names}
     for name in sorted(shaping - set(SCENE_OPTIONS[args.kind])):
@@ -345,6 +348,7 @@ def cmd_sweep(args) -> int:
     from mfi_drake.studies.sweep import (
         ClusterError,
         dask_client,
+        field_to_fly,
         goal_variant,
         layered,
         motion_variant,
@@ -379,6 +383,10 @@ def cmd_sweep(args) -> int:
     if fleet:
         config.variant = fleet_variant(args.vehicles, config.variant)
     modify = partial(layered, overrides=texts, faults=faults)
+    # The first field with every layer, checked before a cluster starts or
+    # anything is written (run_sweep checks it too, for the API's callers).
+    first = field_to_fly(config, tasks, modify, config.densities[0], 0)
+    validate_scenario(first, layered_name(first.name, texts))
     try:
         with dask_client(args.workers, args.scheduler, methods) as client:
             run = run_sweep(config, client, modify, tasks=tasks)
@@ -562,8 +570,9 @@ def exit_statuses(done: str, failed: str = "") -> str:
 
 
 BAD_INPUT = (
-    "bad input (scenario, override, method or argument), reported as one line "
-    "naming it before anything is simulated or written"
+    "bad input (scenario, override, method, argument or an output that cannot "
+    "be written), reported as one line naming it before anything is simulated "
+    "or written"
 )
 USER_FIELD_FAILED = "a user's field (MODULE:NAME) raised or returned a bad force"
 
@@ -881,7 +890,7 @@ def make_parser() -> argparse.ArgumentParser:
         "--index", type=int, default=0, help="field: which field of the seed, ≥ 0"
     )
     scene.add_argument("--out", required=True, help="the .yaml file to write")
-    scene.set_defaults(func=partial(cmd_scene, scene.get_default))
+    scene.set_defaults(func=partial(cmd_scene, scene.get_default), out_is_file=True)
 
     diagram = add_parser(
         sub,
@@ -897,7 +906,7 @@ def make_parser() -> argparse.ArgumentParser:
         help=f"one of {methods}, or MODULE:NAME of your own field function",
     )
     diagram.add_argument("--out", required=True, help="output .svg file (required)")
-    diagram.set_defaults(func=cmd_diagram)
+    diagram.set_defaults(func=cmd_diagram, out_is_file=True)
 
     tune = add_parser(
         sub,
@@ -995,10 +1004,36 @@ def _check_html(args) -> None:
         raise UsageError(f"--html = {html!r}: must name a .html file")
 
 
+def writable(flag: str, path: str, directory: bool) -> None:
+    """Raises UsageError, before anything is flown, where `path` (a directory
+    to create or fill, or a file to write) cannot be written: a file where a
+    directory must be or the reverse, or an existing ancestor that is not a
+    writable directory."""
+    if directory and os.path.exists(path) and not os.path.isdir(path):
+        raise UsageError(f"{flag} = {path!r}: is a file, not a directory")
+    if not directory and os.path.isdir(path):
+        raise UsageError(f"{flag} = {path!r}: is a directory")
+    ancestor = os.path.abspath(path if directory else os.path.dirname(path) or ".")
+    while not os.path.exists(ancestor):
+        ancestor = os.path.dirname(ancestor)
+    if not os.path.isdir(ancestor):
+        raise UsageError(f"{flag} = {path!r}: {ancestor} is not a directory")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise UsageError(f"{flag} = {path!r}: {ancestor} is not writable")
+
+
+def _check_outputs(args) -> None:
+    if getattr(args, "out", None):
+        writable("--out", args.out, not getattr(args, "out_is_file", False))
+    if getattr(args, "html", None):
+        writable("--html", args.html, directory=False)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = make_parser().parse_args(argv)
     try:
         _check_html(args)
+        _check_outputs(args)
         return args.func(args)
     except MethodError as e:
         print(f"mfi-drake: error: --method = {e}", file=sys.stderr)
@@ -1009,6 +1044,9 @@ def main(argv: list[str] | None = None) -> int:
     except UserFieldError as e:
         print(f"mfi-drake: error: {e}", file=sys.stderr)
         return EXIT_FLIGHT_FAILED
+    except OSError as e:  # an output that passed `writable` and still failed
+        print(f"mfi-drake: error: {e.filename}: {e.strerror}", file=sys.stderr)
+        return EXIT_BAD_INPUT
 
 
 if __name__ == "__main__":

@@ -540,6 +540,14 @@ def read_override(path: str) -> tuple[str, str]:
     return path, _read_file(path)
 
 
+def layered_name(name: str, overrides: list[tuple[str, str]] = ()) -> str:
+    """What an error names for scenario `name` with `overrides` layered on
+    it: a bad value may come from any layer ("a.yaml with --set 'x: 1'")."""
+    if not overrides:
+        return name
+    return f"{name} with {', '.join(where for where, _ in overrides)}"
+
+
 def parse_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> Scenario:
     """The scenario file `path` on the defaults, then each override (where,
     YAML text) on top, e.g. ("--set", "faults: {sensor_noise_std: 0.05}") or
@@ -549,7 +557,7 @@ def parse_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> Scenario
     scenario = layer(scenario, _read_file(path), path)
     for where, text in overrides:
         scenario = layer(scenario, text, where)
-    check_scenario(scenario, path)
+    check_scenario(scenario, layered_name(path, overrides))
     return scenario
 
 

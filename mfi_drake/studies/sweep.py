@@ -683,9 +683,7 @@ def run_sweep(
     for key in todo:
         field_key = key.field
         if field_key not in fields:
-            scenario = tasks.make_field(config, key.density, key.index)
-            if modify is not None:  # its overrides may name mesh files
-                scenario = generator.self_contained(modify(scenario))
+            scenario = field_to_fly(config, tasks, modify, key.density, key.index)
             if not fields:
                 validate_scenario(scenario, scenario.name)
             fields[field_key] = scenario
@@ -760,6 +758,22 @@ def with_overrides(scenario: Scenario, overrides: list[tuple[str, str]]) -> Scen
     for where, text in overrides:
         scenario = layer(scenario, text, where)
     return scenario
+
+
+def field_to_fly(
+    config: SweepConfig,
+    tasks: Tasks,
+    modify: Callable[[Scenario], Scenario] | None,
+    density: float,
+    index: int,
+) -> Scenario:
+    """Field `index` at `density` as the sweep flies it: made by `tasks`,
+    then `modify` layered on it (self-contained again: its overrides may
+    name mesh files)."""
+    scenario = tasks.make_field(config, density, index)
+    if modify is None:
+        return scenario
+    return generator.self_contained(modify(scenario))
 
 
 def layered(

@@ -178,5 +178,5 @@ def load_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> sc.Scenar
     text) pairs, see `config.scenario.parse_scenario`) and validates the
     result; raises ScenarioError if it cannot be flown."""
     scenario = sc.parse_scenario(path, overrides)
-    validate_scenario(scenario, path)
+    validate_scenario(scenario, sc.layered_name(path, overrides))
     return scenario
