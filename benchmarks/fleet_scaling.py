@@ -24,7 +24,8 @@ multi-vehicle sweep's, seed 0) flown at each exchange rate; printed:
 outcome, least separation, and each vehicle's path length, with the
 largest difference from the fastest rate's. (A perfectly symmetric circle
 is left out: which way its vehicles break the symmetry is decided by
-rounding, at any rate.)
+rounding, at any rate.) Then each scene at its own rate with its rule of
+the road and without it (keep_right 0).
 """
 
 import argparse
@@ -142,7 +143,9 @@ def one_integrator(rows: list[dict], lines: list[str]) -> None:
         )
 
 
-def rates(hz: list[float], lines: list[str]) -> None:
+def rates(hz: list[float], lines: list[str], rule_lines: list[str]) -> None:
+    """The rates table into `lines`; into `rule_lines`, each scene at its own
+    rate with the rule of the road and without it (keep_right 0)."""
     scenes = [
         load_scenario(os.path.join(ROOT, "scenarios", f"{name}.yaml"))
         for name in ("swarm_circle", "swarm_corridor")
@@ -156,6 +159,11 @@ def rates(hz: list[float], lines: list[str]) -> None:
         "| path lengths [m] | largest path difference from the fastest [m] |",
     )
     say(lines, "|---|---|---|---|---|---|")
+    rule_rows = [
+        "| scene | keep_right [°] | outcome | least separation [m] "
+        "| path lengths [m] |",
+        "|---|---|---|---|---|",
+    ]
     for scene in scenes:
         flown = {r: simulate(replace(scene, exchange_hz=r)).metrics for r in hz}
         paths = {
@@ -164,12 +172,27 @@ def rates(hz: list[float], lines: list[str]) -> None:
         }
         for r, m in flown.items():
             diff = np.abs(paths[r] - paths[max(hz)]).max()
-            listed = ", ".join(f"{p:.2f}" for p in paths[r])
             say(
                 lines,
                 f"| {scene.name} | {r:g} | {m['outcome']} "
-                f"| {m['min_separation']:.3f} | {listed} | {diff:.3f} |",
+                f"| {m['min_separation']:.3f} | {listed(paths[r])} | {diff:.3f} |",
             )
+        estimate = scene.relative_velocity
+        for turn in (estimate.keep_right, 0.0):
+            ruled = replace(scene, relative_velocity=replace(estimate, keep_right=turn))
+            m = simulate(ruled).metrics
+            rule_rows.append(
+                f"| {scene.name} | {turn:g} | {m['outcome']} "
+                f"| {m['min_separation']:.3f} "
+                f"| {listed([v['path_length'] for v in m['vehicles']])} |"
+            )
+    print(flush=True)
+    for row in rule_rows:
+        say(rule_lines, row)
+
+
+def listed(paths) -> str:
+    return ", ".join(f"{p:.2f}" for p in paths)
 
 
 def figure(rows: list[dict], path: str) -> None:
@@ -204,7 +227,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--figure", default="")
     parser.add_argument(
         "--page",
-        help="a page to write the tables into (sections fleet_scaling, fleet_rates)",
+        help="a page to write the tables into (sections fleet_scaling, "
+        "fleet_rates, fleet_rule)",
     )
     args = parser.parse_args(argv)
     sizes = [int(n) for n in args.sizes.split(",") if n]
@@ -223,10 +247,11 @@ def main(argv: list[str] | None = None) -> None:
         if args.page:
             write_section(args.page, "fleet_scaling", "\n".join(lines))
     if args.rates:
-        lines = []
-        rates([float(r) for r in args.rates.split(",")], lines)
+        lines, rule_lines = [], []
+        rates([float(r) for r in args.rates.split(",")], lines, rule_lines)
         if args.page:
             write_section(args.page, "fleet_rates", "\n".join(lines))
+            write_section(args.page, "fleet_rule", "\n".join(rule_lines))
 
 
 if __name__ == "__main__":
