@@ -277,9 +277,20 @@ def test_sweep_flies_every_field_with_the_faults_and_keys_the_records(tmp_path):
     assert len({r.faults.seed for r in replays}) == 2  # independent noise per field
 
 
-@pytest.mark.parametrize("text", ["{dropout_prob: 3}", "{noise: 1}", "[1]"])
-def test_sweep_rejects_bad_faults_in_one_line(tmp_path, capsys, text):
+@pytest.mark.parametrize(
+    "text, named",
+    [
+        ("{dropout_prob: 3}", "faults.dropout_prob = 3"),
+        ("{noise: 1}", "faults.noise = 1: unknown field of Faults"),
+        (
+            "{sensor_noise_std: abc}",
+            "faults.sensor_noise_std = 'abc': must be a number",
+        ),
+        ("[1]", "faults = [1]: must be a mapping of Faults fields"),
+    ],
+)
+def test_sweep_rejects_bad_faults_in_one_line(tmp_path, capsys, text, named):
     assert main(["sweep", "--n", "1", "--out", str(tmp_path), "--faults", text]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "--faults" in err
+    assert len(err.splitlines()) == 1 and "--faults" in err and named in err, err
     assert not os.path.exists(tmp_path / "results.jsonl")

@@ -231,6 +231,9 @@ def test_inputs_that_once_crashed_the_loader_fail_cleanly(workdir, text):
 
 
 def test_a_missing_file_and_a_directory_fail_cleanly(workdir):
-    for path in (os.path.join(workdir, "absent.yaml"), workdir):
-        with pytest.raises(ScenarioError, match="no such scenario file"):
+    for path, words in (
+        (os.path.join(workdir, "absent.yaml"), "no such file"),
+        (workdir, "is a directory, not a YAML file"),
+    ):
+        with pytest.raises(ScenarioError, match=words):
             load_scenario(path)

@@ -19,7 +19,12 @@ import textwrap
 from collections.abc import Callable
 from functools import partial
 
-from mfi_drake.config.scenario import ScenarioError, layered_name, read_override
+from mfi_drake.config.scenario import (
+    ScenarioError,
+    layered_name,
+    read_faults,
+    read_override,
+)
 from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
 from mfi_drake.systems.navigation import UserFieldError
 from mfi_drake.world.validation import (
@@ -176,7 +181,6 @@ def cmd_reproduce(args) -> int:
         MFI_VARIANTS,
         PAPER_SCENARIOS,
         claim_verdicts,
-        flown_with,
         reproduce,
         reproduction_report,
         verdict,
@@ -188,11 +192,6 @@ def cmd_reproduce(args) -> int:
         )
     layers = overrides(args)
     layered = [where for where, _ in layers]
-    print(
-        f"flying {', '.join(PAPER_SCENARIOS)} from {args.scenarios}/ with every "
-        f"method, {flown_with(layered)}",
-        flush=True,
-    )
     results = reproduce(
         args.scenarios,
         partial(print, flush=True),
@@ -343,7 +342,6 @@ def _need_dask() -> None:
 def cmd_sweep(args) -> int:
     _need_dask()
     from mfi_drake.app.figures import plot_fleet_sweep, plot_sweep
-    from mfi_drake.config.faults import faults_from_yaml
     from mfi_drake.studies.fleet_sweep import FLEET, fleet_table, fleet_variant
     from mfi_drake.studies.sweep import (
         ClusterError,
@@ -370,10 +368,7 @@ def cmd_sweep(args) -> int:
     texts = overrides(args)
     faults = None
     if args.faults is not None:
-        try:
-            faults = faults_from_yaml(args.faults)
-        except ValueError as e:
-            raise UsageError(f"--faults = {args.faults!r}: {e}") from None
+        faults = read_faults(args.faults, f"--faults {args.faults!r}")
     config.variant = variant_name(
         texts,
         faults,
@@ -551,12 +546,51 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
+        if action.option_strings and action.nargs == 0 and action.default is False:
+            return text + " (default: off)"  # a flag
         absent = action.default in (None, argparse.SUPPRESS) or isinstance(
             action.default, bool
         )
         if action.option_strings and not absent and "%(default)" not in text:
             text += " (default: %(default)s)"
         return text
+
+
+# The placeholders the help and the README use for each option's value
+# (argparse's default, the option's name in capitals, reads as a shout).
+METAVARS = {
+    "candidates": "K",
+    "density": "D",
+    "held_out_density": "D",
+    "held_out_n": "N",
+    "held_out_seed": "H",
+    "index": "I",
+    "jitter": "K",
+    "method": "M",
+    "methods": "M,M,...",
+    "processes": "P",
+    "scenarios": "DIR",
+    "seed": "S",
+    "vehicles": "N",
+    "walls": "W",
+    "workers": "K",
+}
+
+
+def _name_values(parser: argparse.ArgumentParser) -> None:
+    """Sets METAVARS on every subcommand's options, and --out's to DIR, or
+    FILE where a command writes one file."""
+    for action in parser._actions:
+        for sub in getattr(action, "choices", None) or {}:
+            command = action.choices[sub]
+            file_out = command.get_default("out_is_file")
+            for option in command._actions:
+                if option.metavar is not None:
+                    continue
+                if option.dest == "out":
+                    option.metavar = "FILE" if file_out else "DIR"
+                else:
+                    option.metavar = METAVARS.get(option.dest)
 
 
 def exit_statuses(done: str, failed: str = "") -> str:
@@ -570,9 +604,9 @@ def exit_statuses(done: str, failed: str = "") -> str:
 
 
 BAD_INPUT = (
-    "bad input (scenario, override, method, argument or an output that cannot "
-    "be written), reported as one line naming it before anything is simulated "
-    "or written"
+    "bad input (a scenario's field, an option's value or an output that "
+    "cannot be written), reported as one line naming it before anything is "
+    "simulated or written"
 )
 USER_FIELD_FAILED = "a user's field (MODULE:NAME) raised or returned a bad force"
 
@@ -995,6 +1029,7 @@ def make_parser() -> argparse.ArgumentParser:
         "--json", action="store_true", help="print the report as one JSON object"
     )
     analyze.set_defaults(func=cmd_analyze)
+    _name_values(parser)
     return parser
 
 

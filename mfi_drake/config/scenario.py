@@ -31,7 +31,7 @@ from mfi_drake.config.dynamic import (
     OtherVehicle,
     RelativeVelocity,
 )
-from mfi_drake.config.faults import Faults, fault_problems
+from mfi_drake.config.faults import Faults, fault_problems, faults_from_yaml
 from mfi_drake.config.parameters import (
     ApfParams,
     GfParams,
@@ -508,8 +508,10 @@ def _read_yaml(text: str, where: str):
 
 
 def _read_file(path: str) -> str:
+    if os.path.isdir(path):
+        raise ScenarioError(f"{path}: is a directory, not a YAML file")
     if not os.path.isfile(path):
-        raise ScenarioError(f"{path}: no such scenario file")
+        raise ScenarioError(f"{path}: no such file")
     try:
         with open(path) as f:
             return f.read()
@@ -533,6 +535,17 @@ def layer(scenario: Scenario, text: str, where: str) -> Scenario:
         raise ScenarioError(f"{where}: {message}") from None
     layered.base_dir = base_dir
     return layered
+
+
+def read_faults(text: str, where: str) -> Faults:
+    """A `faults:` block given as YAML text (sweep --faults), checked like a
+    scenario's: a bad key or value raises ScenarioError naming it."""
+    raw = _read_yaml(text, where)
+    _check_schema({} if raw is None else raw, Faults, where, "faults")
+    try:
+        return faults_from_yaml(text)
+    except ValueError as e:
+        raise ScenarioError(f"{where}: faults.{e}") from None
 
 
 def read_override(path: str) -> tuple[str, str]:

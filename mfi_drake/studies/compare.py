@@ -204,12 +204,17 @@ def reproduce(
     gains), with every method of the registry, the scenarios in `workers`
     processes at once (1: in this one); returns the metrics by scenario and
     method. Every scenario is loaded here first, so that bad input is
-    reported before anything flies."""
+    reported before anything flies (or is said to)."""
     paths = {
         name: os.path.join(scenario_dir, f"{name}.yaml") for name in PAPER_SCENARIOS
     }
     for path in paths.values():
         load_scenario(path, overrides)
+    layered = [where for where, _ in overrides]
+    progress(
+        f"flying {', '.join(PAPER_SCENARIOS)} from {scenario_dir}/ with every "
+        f"method, {flown_with(layered)}"
+    )
 
     def report(name: str, metrics: dict[str, dict]) -> None:
         progress(
