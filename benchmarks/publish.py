@@ -549,6 +549,8 @@ def headline_table(root: str) -> str:
     )
     with open(os.path.join(root, RESULTS, "moving", "moving.json")) as f:
         moving = json.load(f)
+    with open(os.path.join(root, RESULTS, "moving", "moving.md")) as f:
+        moving_seed = re.search(r"seed (\d+)", f.read()).group(1)
     at_speed = {
         method: stats
         for speed, seeing, method, stats, _ in moving
@@ -556,8 +558,8 @@ def headline_table(root: str) -> str:
     }
     rows.append(
         [
-            "Moving obstacles: 30 held-out fields, 30 % of the obstacles "
-            "circling at 1 m/s, every method at its shipped gains",
+            f"Moving obstacles: 30 held-out fields (seed {moving_seed}), 30 % of "
+            "the obstacles circling at 1 m/s, every method at its shipped gains",
             "; ".join(
                 f"{LABELS[m]} {count(s, 'success')} of {s['n']}"
                 for m, s in at_speed.items()
