@@ -323,4 +323,4 @@ def test_analyze_command_prints_the_report_as_json(tmp_path, capsys):
 
 def test_analyze_rejects_a_missing_scenario(capsys):
     assert main(["analyze", "no/such.yaml"]) == 2
-    assert "no such scenario" in capsys.readouterr().err
+    assert "no/such.yaml: no such file" in capsys.readouterr().err

@@ -53,6 +53,14 @@ USER_MODULE = textwrap.dedent(
 
     def two_numbers(position, velocity, obstacle_points, goal):
         return np.zeros(2)
+
+    def two_arguments(position, velocity):
+        return -velocity
+
+    def undeclared_gain(position, velocity, obstacle_points, goal, k=1.0):
+        return k * (goal - position)
+
+    undeclared_gain.gains = {"k": (0.5, 2.0), "q": (0.5, 2.0)}
     """
 )
 
@@ -153,6 +161,8 @@ def test_sweep_workers_import_the_user_field(user_dir):
         ("my_nav:CONSTANT", "is not callable"),
         ("my_nav", "must be one of"),
         ("bad_module:field", "cannot import 'bad_module' (ZeroDivisionError"),
+        ("my_nav:two_arguments", "cannot be called as field(position, velocity,"),
+        ("my_nav:undeclared_gain", "and its gains ['k', 'q']: got an unexpected"),
     ],
 )
 def test_a_bad_spec_is_one_line_exit_2_and_nothing_written(

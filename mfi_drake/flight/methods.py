@@ -163,9 +163,12 @@ def appearance(name: str) -> tuple[str, str]:
 def user_method(field: Callable, name: str) -> Method:
     """A method that flies the user's navigation field `field`. Its free
     gains are what `field.gains` declares, {name: (low, high)}: the scenario's
-    `field_gains` are passed to it as keyword arguments."""
+    `field_gains` are passed to it as keyword arguments. Raises MethodError,
+    before anything flies, where `field` cannot be called as the contract
+    says, declared gains included."""
     label, colour = appearance(name)
     declared = getattr(field, "gains", {}) or {}
+    _check_signature(field, name, declared)
     return Method(
         name=name,
         label=label,
@@ -179,6 +182,21 @@ def user_method(field: Callable, name: str) -> Method:
             for default in [_keyword_default(field, key, low, high)]
         ),
     )
+
+
+def _check_signature(field: Callable, name: str, declared: dict) -> None:
+    try:
+        signature = inspect.signature(field)
+    except (TypeError, ValueError):  # no signature to read (some builtins)
+        return
+    try:
+        signature.bind(0, 0, 0, 0, **dict.fromkeys(declared, 0.0))
+    except TypeError as e:
+        with_gains = f" and its gains {sorted(declared)}" if declared else ""
+        raise MethodError(
+            f"{name!r}: cannot be called as field(position, velocity, "
+            f"obstacle_points, goal){with_gains}: {e}"
+        ) from None
 
 
 def _keyword_default(field: Callable, key: str, low: float, high: float) -> float:
