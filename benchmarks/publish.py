@@ -550,7 +550,8 @@ def headline_table(root: str) -> str:
     with open(os.path.join(root, RESULTS, "moving", "moving.json")) as f:
         moving = json.load(f)
     with open(os.path.join(root, RESULTS, "moving", "moving.md")) as f:
-        moving_seed = re.search(r"seed (\d+)", f.read()).group(1)
+        # Its first line: "Written by `python benchmarks/moving.py`: seed S, ..."
+        moving_seed = re.search(r"moving\.py`: seed (\d+)", f.read()).group(1)
     at_speed = {
         method: stats
         for speed, seeing, method, stats, _ in moving

@@ -324,3 +324,19 @@ def test_analyze_command_prints_the_report_as_json(tmp_path, capsys):
 def test_analyze_rejects_a_missing_scenario(capsys):
     assert main(["analyze", "no/such.yaml"]) == 2
     assert "no/such.yaml: no such file" in capsys.readouterr().err
+
+
+def test_a_flight_too_short_to_settle_in_cruise_reports_no_settled_speed():
+    from mfi_drake.studies.analysis.cruise import speed_report
+
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    speed = np.array([0.1, 0.2, 0.3, 0.4])  # never 0.9 v_d
+    cruise = np.array([False, True, True, True])
+    report = speed_report(t, speed, cruise, v_d=1.0)
+    assert report == {"v_d": 1.0, "cruise_time": 2.0}
+    speed[3] = 0.95  # settles at the last sample: its dt is 0, still unsettled
+    assert "settled_mean" not in speed_report(t, speed, cruise, v_d=1.0)
+    speed[2] = 1.0  # settled for the last second
+    settled = speed_report(t, speed, cruise, v_d=1.0)
+    assert settled["settled_mean"] == pytest.approx(1.0)
+    assert settled["fraction_within_10_percent"] == pytest.approx(1.0)

@@ -182,8 +182,16 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_flight(
     assert sorted(p.name for p in tmp_path.iterdir()) == made
 
 
+def test_the_default_output_is_checked_before_any_flight(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "out").write_text("")  # a file where out/<name>/ must go
+    assert main(["run", PLANAR_WALL]) == 2
+    err = capsys.readouterr().err
+    assert "--out = 'out/planar_wall'" in err and "is not a directory" in err, err
+
+
 @pytest.mark.parametrize("command", ["run", "sweep"])
-def test_a_bad_value_from_a_layer_names_that_layer(
+def test_a_bad_value_from_a_layer_names_the_layers(
     tmp_path, capsys, monkeypatch, command
 ):
     """The file says duration: 40; the error must blame the --set, and the

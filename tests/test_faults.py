@@ -15,8 +15,8 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Integrator, Multiplexer
 
 from mfi_drake.app.cli import main
-from mfi_drake.config.faults import Faults, faults_from_yaml
-from mfi_drake.config.scenario import Scenario, ScenarioError
+from mfi_drake.config.faults import Faults
+from mfi_drake.config.scenario import Scenario, ScenarioError, read_faults
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import fly, simulate
@@ -252,7 +252,7 @@ def test_fault_systems_convert_to_autodiff_for_linearisation():
 
 
 def test_sweep_flies_every_field_with_the_faults_and_keys_the_records(tmp_path):
-    faults = faults_from_yaml("{sensor_noise_std: 0.05, motor_time_constant: 0.02}")
+    faults = read_faults("{sensor_noise_std: 0.05, motor_time_constant: 0.02}", "t")
     variant = fault_variant(faults)
     assert variant == "sensor_noise_std=0.05,motor_time_constant=0.02"
 
@@ -275,6 +275,11 @@ def test_sweep_flies_every_field_with_the_faults_and_keys_the_records(tmp_path):
         assert replay.faults.sensor_noise_std == 0.05
         assert replay.faults.motor_time_constant == 0.02
     assert len({r.faults.seed for r in replays}) == 2  # independent noise per field
+
+
+@pytest.mark.parametrize("text", ["", "~", "null", "{}"])
+def test_empty_faults_are_none(text):
+    assert read_faults(text, "--faults") == Faults()
 
 
 @pytest.mark.parametrize(

@@ -61,6 +61,9 @@ USER_MODULE = textwrap.dedent(
         return k * (goal - position)
 
     undeclared_gain.gains = {"k": (0.5, 2.0), "q": (0.5, 2.0)}
+
+    def required_gain(position, velocity, obstacle_points, goal, *, k):
+        return k * (goal - position) - 2.0 * velocity
     """
 )
 
@@ -201,6 +204,16 @@ def test_a_failing_user_field_is_one_line_naming_it_and_the_time(
         assert float(err.split("t = ")[1].split(" s")[0]) > 0.5
     with pytest.raises(UserFieldError):
         simulate(load_scenario(PLANAR_WALL), f"my_nav:{name}")
+
+
+def test_a_gain_the_scenario_supplies_may_be_required(user_dir):
+    scenario = load_scenario(
+        PLANAR_WALL, [("--set", "{field_gains: {k: 1.0}, duration: 0.5}")]
+    )
+    flight = simulate(scenario, "my_nav:required_gain")
+    assert flight.metrics["sim_time"] == pytest.approx(0.5)
+    with pytest.raises(UserFieldError, match="required_gain"):  # not supplied
+        simulate(load_scenario(PLANAR_WALL), "my_nav:required_gain")
 
 
 def test_python_api_rejects_what_is_not_a_method():

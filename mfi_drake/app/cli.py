@@ -104,7 +104,7 @@ def cmd_run(args) -> int:
     _at_least("--processes", args.processes, 1)
     method = resolve_method(args.method)
     scenario = scenario_of(args)
-    out = args.out or os.path.join("out", scenario.name)
+    out = default_out(args.out, scenario.name)
     flight = simulate(scenario, method, processes=args.processes)
     write_flight_log(os.path.join(out, "trajectory.npz"), flight)
     plot_flights(scenario, [flight], os.path.join(out, "trajectory.png"))
@@ -120,6 +120,15 @@ def cmd_run(args) -> int:
         if args.html:
             print(f"wrote {args.html}")
     return flights_status([flight])
+
+
+def default_out(out: str | None, *names: str) -> str:
+    """--out, or out/NAMES... where it was not given, checked (`writable`)
+    before anything flies."""
+    if out is None:
+        out = os.path.join("out", *names)
+        writable("--out", out, directory=True)
+    return out
 
 
 def flights_status(flights: list) -> int:
@@ -151,7 +160,7 @@ def cmd_compare(args) -> int:
 
     methods = parse_methods(args.methods)
     scenario = scenario_of(args)
-    out = args.out or os.path.join("out", scenario.name)
+    out = default_out(args.out, scenario.name)
     flights = compare(scenario, methods)
     figure = os.path.join(out, "compare.png")
     write_comparison_figure(scenario, flights, figure)
@@ -365,6 +374,11 @@ def cmd_sweep(args) -> int:
         out=args.out,
     )
     fleet = tasks is FLEET
+    if fleet and args.faults is not None:
+        raise UsageError(
+            f"--faults = {args.faults!r}: not with --vehicles > 1 (a fleet's "
+            "vehicles fly without faults)"
+        )
     texts = overrides(args)
     faults = None
     if args.faults is not None:
@@ -527,7 +541,7 @@ def cmd_analyze(args) -> int:
     from mfi_drake.studies.analysis import run_analysis, summary
 
     scenario = scenario_of(args)
-    out = args.out or os.path.join("out", scenario.name, "analysis")
+    out = default_out(args.out, scenario.name, "analysis")
     report, series = run_analysis(scenario)
     report["figures"] = write_analysis_figures(series, out)
     report = _json_safe(report)
@@ -554,43 +568,6 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
         if action.option_strings and not absent and "%(default)" not in text:
             text += " (default: %(default)s)"
         return text
-
-
-# The placeholders the help and the README use for each option's value
-# (argparse's default, the option's name in capitals, reads as a shout).
-METAVARS = {
-    "candidates": "K",
-    "density": "D",
-    "held_out_density": "D",
-    "held_out_n": "N",
-    "held_out_seed": "H",
-    "index": "I",
-    "jitter": "K",
-    "method": "M",
-    "methods": "M,M,...",
-    "processes": "P",
-    "scenarios": "DIR",
-    "seed": "S",
-    "vehicles": "N",
-    "walls": "W",
-    "workers": "K",
-}
-
-
-def _name_values(parser: argparse.ArgumentParser) -> None:
-    """Sets METAVARS on every subcommand's options, and --out's to DIR, or
-    FILE where a command writes one file."""
-    for action in parser._actions:
-        for sub in getattr(action, "choices", None) or {}:
-            command = action.choices[sub]
-            file_out = command.get_default("out_is_file")
-            for option in command._actions:
-                if option.metavar is not None:
-                    continue
-                if option.dest == "out":
-                    option.metavar = "FILE" if file_out else "DIR"
-                else:
-                    option.metavar = METAVARS.get(option.dest)
 
 
 def exit_statuses(done: str, failed: str = "") -> str:
@@ -651,11 +628,16 @@ def add_random_field(parser: argparse.ArgumentParser, several: bool) -> None:
     from mfi_drake.world.generator import DEFAULT_DENSITY
 
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the random fields, ≥ 0"
+        "--seed",
+        metavar="S",
+        type=int,
+        default=0,
+        help="seed of the random fields, ≥ 0",
     )
     box = "obstacles per m³ of the 8×5×5 m box around the start–goal line"
     parser.add_argument(
         "--density",
+        metavar="D",
         type=float,
         nargs="+" if several else None,
         default=[DEFAULT_DENSITY] if several else DEFAULT_DENSITY,
@@ -705,7 +687,9 @@ def add_overrides(parser: argparse.ArgumentParser) -> None:
 
 def add_flight_outputs(parser: argparse.ArgumentParser, json_help: str) -> None:
     """--out, --json and --html of run and compare."""
-    parser.add_argument("--out", help="output directory (default: out/<scenario name>)")
+    parser.add_argument(
+        "--out", metavar="DIR", help="output directory (default: out/<scenario name>)"
+    )
     parser.add_argument("--json", action="store_true", help=json_help)
     parser.add_argument(
         "--html",
@@ -725,6 +709,7 @@ def add_field_count(parser: argparse.ArgumentParser, n: int, what: str) -> None:
 def add_workers(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--workers",
+        metavar="K",
         type=int,
         default=os.cpu_count() or 1,
         help="local Dask worker processes, ≥ 1 (default: %(default)s, one per core)",
@@ -765,11 +750,13 @@ def make_parser() -> argparse.ArgumentParser:
     add_overrides(run)
     run.add_argument(
         "--method",
+        metavar="M",
         default="mfi",
         help=f"one of {methods}, or MODULE:NAME of your own field function",
     )
     run.add_argument(
         "--processes",
+        metavar="P",
         type=int,
         default=1,
         help="with other_vehicles: processes the fleet's vehicles are spread "
@@ -793,6 +780,7 @@ def make_parser() -> argparse.ArgumentParser:
     add_overrides(comp)
     comp.add_argument(
         "--methods",
+        metavar="M,M,...",
         default=",".join(METHODS),
         help="distinct names or MODULE:NAME, separated by commas",
     )
@@ -815,13 +803,17 @@ def make_parser() -> argparse.ArgumentParser:
     )
     rep.add_argument(
         "--scenarios",
+        metavar="DIR",
         default="scenarios",
         help="directory holding the paper's scenarios (planar_wall.yaml, ...)",
     )
-    rep.add_argument("--out", default="out/reproduce", help="output directory")
+    rep.add_argument(
+        "--out", metavar="DIR", default="out/reproduce", help="output directory"
+    )
     add_overrides(rep)
     rep.add_argument(
         "--workers",
+        metavar="K",
         type=int,
         default=min(len(PAPER_SCENARIOS), os.cpu_count() or 1),
         help="processes flying the scenarios at once, 1 to "
@@ -843,12 +835,14 @@ def make_parser() -> argparse.ArgumentParser:
     add_field_count(sweep, 30, "random")
     sweep.add_argument(
         "--methods",
+        metavar="M,M,...",
         help="distinct names or MODULE:NAME, separated by commas, e.g. mfi,apf,gf "
         f"(default: every method of the registry: {','.join(METHODS)})",
     )
     add_random_field(sweep, several=True)
     sweep.add_argument(
         "--vehicles",
+        metavar="V",
         type=int,
         default=1,
         help="vehicles per field, ≥ 1, between random start and goal pairs at the "
@@ -863,7 +857,9 @@ def make_parser() -> argparse.ArgumentParser:
         "offset by its name); results are keyed by it, so several can share "
         "--out (default: none)",
     )
-    sweep.add_argument("--out", default="out/sweep", help="output directory")
+    sweep.add_argument(
+        "--out", metavar="DIR", default="out/sweep", help="output directory"
+    )
     sweep.add_argument(
         "--json", action="store_true", help="print the summary as one JSON object"
     )
@@ -886,6 +882,7 @@ def make_parser() -> argparse.ArgumentParser:
     scene.add_argument("kind", choices=list(SCENE_OPTIONS), help="the kind of scene")
     scene.add_argument(
         "--vehicles",
+        metavar="V",
         type=int,
         help="vehicles, ≥ 1 (default: 8; 1 for field)",
     )
@@ -899,7 +896,7 @@ def make_parser() -> argparse.ArgumentParser:
     scene.add_argument(
         "--duration",
         type=float,
-        metavar="S",
+        metavar="T",
         help="circle: simulated seconds, > 0 (default: 5 s per metre of diameter)",
     )
     scene.add_argument(
@@ -921,9 +918,15 @@ def make_parser() -> argparse.ArgumentParser:
     )
     add_random_field(scene, several=False)
     scene.add_argument(
-        "--index", type=int, default=0, help="field: which field of the seed, ≥ 0"
+        "--index",
+        metavar="I",
+        type=int,
+        default=0,
+        help="field: which field of the seed, ≥ 0",
     )
-    scene.add_argument("--out", required=True, help="the .yaml file to write")
+    scene.add_argument(
+        "--out", metavar="FILE.yaml", required=True, help="the .yaml file to write"
+    )
     scene.set_defaults(func=partial(cmd_scene, scene.get_default), out_is_file=True)
 
     diagram = add_parser(
@@ -936,10 +939,13 @@ def make_parser() -> argparse.ArgumentParser:
     add_overrides(diagram)
     diagram.add_argument(
         "--method",
+        metavar="M",
         default="mfi",
         help=f"one of {methods}, or MODULE:NAME of your own field function",
     )
-    diagram.add_argument("--out", required=True, help="output .svg file (required)")
+    diagram.add_argument(
+        "--out", metavar="FILE.svg", required=True, help="output .svg file (required)"
+    )
     diagram.set_defaults(func=cmd_diagram, out_is_file=True)
 
     tune = add_parser(
@@ -953,11 +959,13 @@ def make_parser() -> argparse.ArgumentParser:
     )
     tune.add_argument(
         "--methods",
+        metavar="M,M,...",
         default=",".join(METHODS),
         help="distinct names or MODULE:NAME, separated by commas",
     )
     tune.add_argument(
         "--candidates",
+        metavar="C",
         type=int,
         default=24,
         help=f"gain sets tried per method, ≥ {MIN_CANDIDATES}: the current gains, "
@@ -965,11 +973,12 @@ def make_parser() -> argparse.ArgumentParser:
         "refinement; the budget is candidates × training fields flights",
     )
     tune.add_argument(
-        "--seed", type=int, default=100, help="training fields' seed, ≥ 0"
+        "--seed", metavar="S", type=int, default=100, help="training fields' seed, ≥ 0"
     )
     add_field_count(tune, 10, "random training")
     tune.add_argument(
         "--density",
+        metavar="D",
         type=float,
         nargs="+",
         default=[0.1, 0.2],
@@ -981,11 +990,16 @@ def make_parser() -> argparse.ArgumentParser:
         help="a directory whose paper scenarios join training (default: none)",
     )
     tune.add_argument(
-        "--walls", type=int, default=0, help="wall fields that join training, ≥ 0"
+        "--walls",
+        metavar="W",
+        type=int,
+        default=0,
+        help="wall fields that join training, ≥ 0",
     )
     add_motion(tune, "each random training field also flown with this share moving")
     tune.add_argument(
         "--jitter",
+        metavar="J",
         type=int,
         default=1,
         help="fly each random training field this many times, started 1 mm "
@@ -993,25 +1007,30 @@ def make_parser() -> argparse.ArgumentParser:
     )
     tune.add_argument(
         "--held-out-seed",
+        metavar="H",
         type=int,
         help="seed of the held-out fields the winners are then flown on, ≥ 0 and "
         "≠ --seed (default: none, no held-out phase, with a warning)",
     )
     tune.add_argument(
         "--held-out-n",
+        metavar="N",
         type=int,
         default=200,
         help="held-out fields per density, ≥ 1",
     )
     tune.add_argument(
         "--held-out-density",
+        metavar="D",
         type=float,
         nargs="+",
         default=[0.05, 0.1, 0.2],
         help="held-out densities, obstacles per m³, each ≥ 0",
     )
     add_workers(tune)
-    tune.add_argument("--out", default="out/tune", help="output directory")
+    tune.add_argument(
+        "--out", metavar="DIR", default="out/tune", help="output directory"
+    )
     tune.set_defaults(func=cmd_tune)
 
     analyze = add_parser(
@@ -1023,13 +1042,14 @@ def make_parser() -> argparse.ArgumentParser:
     analyze.add_argument("scenario", help="scenario YAML file")
     add_overrides(analyze)
     analyze.add_argument(
-        "--out", help="output directory (default: out/<scenario name>/analysis)"
+        "--out",
+        metavar="DIR",
+        help="output directory (default: out/<scenario name>/analysis)",
     )
     analyze.add_argument(
         "--json", action="store_true", help="print the report as one JSON object"
     )
     analyze.set_defaults(func=cmd_analyze)
-    _name_values(parser)
     return parser
 
 
@@ -1044,12 +1064,15 @@ def writable(flag: str, path: str, directory: bool) -> None:
     to create or fill, or a file to write) cannot be written: a file where a
     directory must be or the reverse, or an existing ancestor that is not a
     writable directory."""
-    if directory and os.path.exists(path) and not os.path.isdir(path):
+    if not path:
+        kind = "directory" if directory else "file"
+        raise UsageError(f"{flag} = '': must name a {kind}")
+    if directory and os.path.lexists(path) and not os.path.isdir(path):
         raise UsageError(f"{flag} = {path!r}: is a file, not a directory")
     if not directory and os.path.isdir(path):
         raise UsageError(f"{flag} = {path!r}: is a directory")
     ancestor = os.path.abspath(path if directory else os.path.dirname(path) or ".")
-    while not os.path.exists(ancestor):
+    while not os.path.lexists(ancestor):
         ancestor = os.path.dirname(ancestor)
     if not os.path.isdir(ancestor):
         raise UsageError(f"{flag} = {path!r}: {ancestor} is not a directory")
@@ -1058,9 +1081,9 @@ def writable(flag: str, path: str, directory: bool) -> None:
 
 
 def _check_outputs(args) -> None:
-    if getattr(args, "out", None):
+    if getattr(args, "out", None) is not None:
         writable("--out", args.out, not getattr(args, "out_is_file", False))
-    if getattr(args, "html", None):
+    if getattr(args, "html", None) is not None:
         writable("--html", args.html, directory=False)
 
 
@@ -1080,7 +1103,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mfi-drake: error: {e}", file=sys.stderr)
         return EXIT_FLIGHT_FAILED
     except OSError as e:  # an output that passed `writable` and still failed
-        print(f"mfi-drake: error: {e.filename}: {e.strerror}", file=sys.stderr)
+        where = f"{e.filename}: {e.strerror}" if e.filename else str(e)
+        print(f"mfi-drake: error: {where}", file=sys.stderr)
         return EXIT_BAD_INPUT
 
 

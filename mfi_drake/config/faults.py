@@ -5,8 +5,6 @@ vehicle, each off by default (the systems that model them are in
 import math
 from dataclasses import dataclass, fields
 
-from pydrake.common.yaml import yaml_load_typed
-
 from mfi_drake.maths.layout import ROTORS
 
 MAX_DELAY_SAMPLES = 1000  # longest delay line sensor_latency may ask for
@@ -104,15 +102,3 @@ def fault_problems(faults: Faults) -> list[tuple[str, object, str]]:
 def delay_samples(faults: Faults) -> int:
     """sensor_latency in whole sample periods."""
     return round(faults.sensor_latency * faults.sample_rate)
-
-
-def faults_from_yaml(text: str) -> Faults:
-    """A `faults:` block given as YAML text (e.g. on the command line);
-    raises ValueError naming the field and value."""
-    try:
-        faults = yaml_load_typed(schema=Faults, data=text.strip() or "{}")
-    except Exception as e:  # yaml_load_typed raises several types
-        raise ValueError(" ".join(str(e).split())) from None
-    for name, value, reason in fault_problems(faults):
-        raise ValueError(f"{name} = {value!r}: {reason}")
-    return faults

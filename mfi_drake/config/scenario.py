@@ -31,7 +31,7 @@ from mfi_drake.config.dynamic import (
     OtherVehicle,
     RelativeVelocity,
 )
-from mfi_drake.config.faults import Faults, fault_problems, faults_from_yaml
+from mfi_drake.config.faults import Faults, fault_problems
 from mfi_drake.config.parameters import (
     ApfParams,
     GfParams,
@@ -528,24 +528,31 @@ def layer(scenario: Scenario, text: str, where: str) -> Scenario:
         return scenario
     _check_schema(raw, Scenario, where, "")
     base_dir = scenario.base_dir
+    layered = _typed(Scenario, text, where, defaults=scenario)
+    layered.base_dir = base_dir
+    return layered
+
+
+def _typed(schema, text: str, where: str, **defaults):
+    """yaml_load_typed(schema, text), any error it raises as ScenarioError."""
     try:
-        layered = yaml_load_typed(schema=Scenario, data=text, defaults=scenario)
+        return yaml_load_typed(schema=schema, data=text, **defaults)
     except Exception as e:  # yaml_load_typed raises several types
         message = " ".join(str(e).split())
         raise ScenarioError(f"{where}: {message}") from None
-    layered.base_dir = base_dir
-    return layered
 
 
 def read_faults(text: str, where: str) -> Faults:
     """A `faults:` block given as YAML text (sweep --faults), checked like a
     scenario's: a bad key or value raises ScenarioError naming it."""
     raw = _read_yaml(text, where)
-    _check_schema({} if raw is None else raw, Faults, where, "faults")
-    try:
-        return faults_from_yaml(text)
-    except ValueError as e:
-        raise ScenarioError(f"{where}: faults.{e}") from None
+    if raw is None:  # '', '~', 'null': no faults
+        return Faults()
+    _check_schema(raw, Faults, where, "faults")
+    faults = _typed(Faults, text, where)
+    for name, value, reason in fault_problems(faults):
+        fail(where, f"faults.{name}", value, reason)
+    return faults
 
 
 def read_override(path: str) -> tuple[str, str]:

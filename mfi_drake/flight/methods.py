@@ -189,8 +189,8 @@ def _check_signature(field: Callable, name: str, declared: dict) -> None:
         signature = inspect.signature(field)
     except (TypeError, ValueError):  # no signature to read (some builtins)
         return
-    try:
-        signature.bind(0, 0, 0, 0, **dict.fromkeys(declared, 0.0))
+    try:  # partial: a required gain may come from the scenario's field_gains
+        signature.bind_partial(0, 0, 0, 0, **dict.fromkeys(declared, 0.0))
     except TypeError as e:
         with_gains = f" and its gains {sorted(declared)}" if declared else ""
         raise MethodError(

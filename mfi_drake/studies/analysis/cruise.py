@@ -207,10 +207,13 @@ def speed_report(t: np.ndarray, speed: np.ndarray, cruise: np.ndarray, v_d: floa
         return {"cruise_time": 0.0}
     settled = cruise & (np.cumsum(cruise & (speed >= 0.9 * v_d)) > 0)
     dt = np.diff(t, append=t[-1])
+    cruise_time = float(dt[cruise].sum())
+    if dt[settled].sum() <= 0.0:  # a short flight: never settled in cruise
+        return {"v_d": v_d, "cruise_time": cruise_time}
     within = settled & (np.abs(speed - v_d) <= 0.1 * v_d)
     return {
         "v_d": v_d,
-        "cruise_time": float(dt[cruise].sum()),
+        "cruise_time": cruise_time,
         "settled_mean": float(np.average(speed[settled], weights=dt[settled] + 1e-12)),
         "settled_min": float(speed[settled].min()),
         "settled_max": float(speed[settled].max()),

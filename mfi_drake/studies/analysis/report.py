@@ -151,9 +151,7 @@ def summary(report: dict) -> str:
             + ", ".join(
                 f"{k} {v:.3g} W" for k, v in cruise["realised_power_max_abs"].items()
             ),
-            f"cruise speed (settled): {cruise['speed']['settled_min']:.2f}–"
-            f"{cruise['speed']['settled_max']:.2f} m/s for v_d = "
-            f"{cruise['speed']['v_d']} m/s",
+            _speed_line(cruise["speed"]),
             f"heading decay (far goal): vehicle e-fold "
             f"{report['far_goal_heading']['vehicle_e_fold_time']:.3g} s vs m/K_ω = "
             f"{report['far_goal_heading']['closed_form_time_constant']:.3g} s",
@@ -161,4 +159,13 @@ def summary(report: dict) -> str:
             f"full vehicle {'≥ ' if sampled['lower_bound_only'] else ''}"
             f"{sampled['radius']:.3g} (|(Δp [m], Δv [m/s])|)",
         ]
+    )
+
+
+def _speed_line(speed: dict) -> str:
+    if "settled_min" not in speed:  # a flight too short to settle in cruise
+        return f"cruise speed: never settled ({speed['cruise_time']:.2f} s in cruise)"
+    return (
+        f"cruise speed (settled): {speed['settled_min']:.2f}–"
+        f"{speed['settled_max']:.2f} m/s for v_d = {speed['v_d']} m/s"
     )
