@@ -425,14 +425,16 @@ BAD = [
 
 @pytest.mark.parametrize("label, change, needle", BAD, ids=[b[0] for b in BAD])
 def test_bad_dynamic_input_is_one_line_and_exit_2(
-    write_yaml, capsys, label, change, needle
+    write_yaml, tmp_path, capsys, label, change, needle
 ):
     assert load_scenario(write_yaml(GOOD)).other_vehicles  # the base is good
     path = write_yaml(GOOD.replace(*change))
-    assert main(["run", path, "--out", os.devnull]) == 2
+    out = tmp_path / "out"
+    assert main(["run", path, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("mfi-drake: error:")
     assert path in err and needle in err
+    assert not out.exists()
 
 
 def test_a_vehicles_camera_sees_the_other_vehicle_and_not_itself(write_yaml):
