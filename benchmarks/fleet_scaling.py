@@ -179,11 +179,11 @@ def rates(hz: list[float], lines: list[str], rule_lines: list[str]) -> None:
             )
         estimate = scene.relative_velocity
         for turn in (estimate.keep_right, 0.0):
-            ruled = replace(scene, relative_velocity=replace(estimate, keep_right=turn))
             if turn == estimate.keep_right and scene.exchange_hz in flown:
                 m = flown[scene.exchange_hz]  # flown already, for the rates
             else:
-                m = simulate(ruled).metrics
+                turned = replace(estimate, keep_right=turn)
+                m = simulate(replace(scene, relative_velocity=turned)).metrics
             rule_rows.append(
                 f"| {scene.name} | {turn:g} | {m['outcome']} "
                 f"| {m['min_separation']:.3f} "
