@@ -7,22 +7,21 @@ the exchange rate (docs/fleets.md).
 
 Scaling: for each N, an antipodal circle of N vehicles (`world.fleets`,
 radius `circle_radius(N)`, duration 5 s per metre of diameter) is flown by
-MFI with the default exchange rate over P processes (default: one per
-core), and one vehicle flies the same diameter alone (the reference, in the
-same run). Printed: vehicle-seconds per second of CPU time (every
-process's) and of wall time, and the fleet's over the reference's: the CPU
-ratio is the work a vehicle-second costs, the wall ratio what the machine
-delivers (on a shared machine the CPU ratio is the steadier).
-
-Then, for the other design (one diagram and one error-controlled integrator
-for the whole fleet): the steps such an integrator would take, estimated
-from the flights just flown (`shared_steps`), and the CPU it could spend a
-vehicle and step and still deliver 0.75 of the reference's rate.
+MFI by both designs (docs/fleets.md): separate integration with the
+default exchange rate over P processes (default: one per core), and one
+integrator (one process); and one vehicle flies the same diameter alone
+(the reference, in the same run). Printed: vehicle-seconds per second of
+CPU time (every process's) and of wall time, and the fleet's over the
+reference's: the CPU ratio is the work a vehicle-second costs, the wall
+ratio what the machine delivers (on a shared machine the CPU ratio is the
+steadier). The one integrator's build time (its chain compiled, outside
+the flight) is printed apart.
 
 Rates: the shipped swarms and three random fields of four vehicles (the
-multi-vehicle sweep's, seed 0) flown at each exchange rate; printed:
-outcome, least separation, and each vehicle's path length, with the
-largest difference from the fastest rate's. (A perfectly symmetric circle
+multi-vehicle sweep's, seed 0) flown at each exchange rate, and on one
+integrator (no exchange); printed: outcome, least separation, and each
+vehicle's path length, with the largest difference from the fastest
+rate's. (A perfectly symmetric circle
 is left out: which way its vehicles break the symmetry is decided by
 rounding, at any rate.) Then each scene at its own rate with its rule of
 the road and without it (keep_right 0).
@@ -30,6 +29,7 @@ the road and without it (keep_right 0).
 
 import argparse
 import os
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -53,23 +53,6 @@ def speeds(flight) -> tuple[float, float]:
     return vehicle_seconds / flight.cpu_time, vehicle_seconds / flight.wall_time
 
 
-# The window [s] within which `shared_steps` counts each vehicle's steps.
-WINDOW = 0.05
-
-
-def shared_steps(flights: list, duration: float) -> int:
-    """The steps one error-controlled integrator of the whole fleet would
-    take, estimated from its vehicles' separately integrated flights:
-    Drake's error norm is the largest over the state's entries, so such a
-    step is as short as the shortest of the vehicles' steps at that time.
-    Per WINDOW, the most steps any vehicle took there; summed."""
-    edges = np.arange(0.0, duration + WINDOW, WINDOW)
-    most = np.zeros(len(edges) - 1)
-    for flight in flights:
-        most = np.maximum(most, np.histogram(np.unique(flight.times)[1:], edges)[0])
-    return int(most.sum())
-
-
 def alone(fleet):
     """The reference: the fleet's own vehicle flying its diameter alone."""
     return with_vehicles(replace(fleet, name="alone"), [(fleet.start, fleet.goal)])
@@ -81,66 +64,53 @@ def say(lines: list[str], line: str) -> None:
     lines.append(line)
 
 
+DESIGNS = ("separate", "one")
+
+
 def scaling(sizes: list[int], processes: int, lines: list[str]) -> list[dict]:
     say(
         lines,
-        "| N | outcome | least separation [m] | vehicle-s per CPU s | per wall s "
-        "| alone: per CPU s | per wall s | ratio (CPU) | ratio (wall) |",
+        "| N | design | outcome | least separation [m] | steps | vehicle-s per CPU s "
+        "| per wall s | alone: per CPU s | per wall s | ratio (CPU) | ratio (wall) "
+        "| build [s] |",
     )
-    say(lines, "|---|---|---|---|---|---|---|---|---|")
+    say(lines, "|---|---|---|---|---|---|---|---|---|---|---|---|")
     rows = []
     for n in sizes:
         fleet = antipodal_circle(n)
         reference = simulate(alone(fleet))
-        flown = simulate(fleet, processes=processes)
-        cpu, wall = speeds(flown)
         cpu_ref, wall_ref = speeds(reference)
-        separation = flown.metrics.get("min_separation")
-        row = {
-            "n": n,
-            "outcome": flown.metrics["outcome"],
-            "cpu": cpu,
-            "wall": wall,
-            "cpu_ref": cpu_ref,
-            "ratio": cpu / cpu_ref,
-            "ratio_wall": wall / wall_ref,
-            "separation": separation,
-        }
-        vehicles = [flown, *flown.others]
-        row["steps"] = np.mean([f.metrics["steps"] for f in vehicles])
-        row["steps_ref"] = reference.metrics["steps"]
-        row["shared"] = shared_steps(vehicles, flown.metrics["sim_time"])
-        # µs of CPU a lone step costs, and what one step of one vehicle
-        # may cost in a shared integrator for 0.75 of the lone rate.
-        row["step_ref"] = 1e6 * reference.cpu_time / row["steps_ref"]
-        row["budget"] = row["step_ref"] * row["steps_ref"] / row["shared"] / 0.75
-        rows.append(row)
-        sep = "–" if separation is None else f"{separation:.3f}"
-        say(
-            lines,
-            f"| {n} | {row['outcome']} | {sep} | {cpu:.1f} | {wall:.1f} "
-            f"| {cpu_ref:.1f} | {wall_ref:.1f} | {row['ratio']:.2f} "
-            f"| {row['ratio_wall']:.2f} |",
-        )
+        for design in DESIGNS if n > 1 else DESIGNS[:1]:
+            start = time.perf_counter()
+            flown = simulate(
+                replace(fleet, fleet_integration=design), processes=processes
+            )
+            build = time.perf_counter() - start - flown.wall_time
+            cpu, wall = speeds(flown)
+            separation = flown.metrics.get("min_separation")
+            vehicles = [flown, *flown.others]
+            # Separate integration: a vehicle's steps (the mean); one
+            # integrator: the fleet's.
+            steps = np.mean([f.integrator_steps for f in vehicles])
+            row = {
+                "n": n,
+                "design": design,
+                "cpu": cpu,
+                "wall": wall,
+                "cpu_ref": cpu_ref,
+                "ratio": cpu / cpu_ref,
+            }
+            rows.append(row)
+            sep = "–" if separation is None else f"{separation:.3f}"
+            label = "one vehicle" if n == 1 else design
+            built = f"{build:.1f}" if design == "one" else "–"
+            say(
+                lines,
+                f"| {n} | {label} | {flown.metrics['outcome']} | {sep} | {steps:.0f} "
+                f"| {cpu:.1f} | {wall:.1f} | {cpu_ref:.1f} | {wall_ref:.1f} "
+                f"| {cpu / cpu_ref:.2f} | {wall / wall_ref:.2f} | {built} |",
+            )
     return rows
-
-
-def one_integrator(rows: list[dict], lines: list[str]) -> None:
-    """The table of what one integrator for the whole fleet would allow."""
-    say(
-        lines,
-        "| N | steps: alone | a fleet vehicle (mean) | one integrator (est.) "
-        "| µs of CPU a lone step | allowed a vehicle and shared step "
-        "| of a lone step |",
-    )
-    say(lines, "|---|---|---|---|---|---|---|")
-    for r in rows:
-        say(
-            lines,
-            f"| {r['n']} | {r['steps_ref']} | {r['steps']:.0f} | {r['shared']} "
-            f"| {r['step_ref']:.0f} | {r['budget']:.0f} "
-            f"| {r['budget'] / r['step_ref']:.2f} |",
-        )
 
 
 def rates(hz: list[float], lines: list[str], rule_lines: list[str]) -> None:
@@ -170,12 +140,18 @@ def rates(hz: list[float], lines: list[str], rule_lines: list[str]) -> None:
             r: np.array([v["path_length"] for v in m["vehicles"]])
             for r, m in flown.items()
         }
+        # One integrator: the vehicles see each other with no exchange at all.
+        flown["one integrator"] = simulate(
+            replace(scene, fleet_integration="one")
+        ).metrics
         for r, m in flown.items():
-            diff = np.abs(paths[r] - paths[max(hz)]).max()
+            path = np.array([v["path_length"] for v in m["vehicles"]])
+            diff = np.abs(path - paths[max(hz)]).max()
+            rate = r if isinstance(r, str) else f"{r:g}"
             say(
                 lines,
-                f"| {scene.name} | {r:g} | {m['outcome']} "
-                f"| {m['min_separation']:.3f} | {listed(paths[r])} | {diff:.3f} |",
+                f"| {scene.name} | {rate} | {m['outcome']} "
+                f"| {m['min_separation']:.3f} | {listed(path)} | {diff:.3f} |",
             )
         estimate = scene.relative_velocity
         for turn in (estimate.keep_right, 0.0):
@@ -206,12 +182,17 @@ def figure(rows: list[dict], path: str) -> None:
 
     from mfi_drake.files import atomic_path
 
-    n = [r["n"] for r in rows]
     fig, ax = plt.subplots(figsize=(6, 3.5))
-    ax.plot(n, [r["cpu"] for r in rows], "o-", label="fleet, per CPU s")
-    ax.plot(n, [r["wall"] for r in rows], "^-", label="fleet, per wall s")
-    ax.plot(n, [r["cpu_ref"] for r in rows], "s--", label="one vehicle alone")
-    ax.plot(n, [0.75 * r["cpu_ref"] for r in rows], ":", label="0.75 × alone")
+    for design, marker in zip(DESIGNS, "o^", strict=True):
+        # The lone vehicle (N = 1) starts both curves.
+        mine = [r for r in rows if r["design"] == design or r["n"] == 1]
+        n = [r["n"] for r in mine]
+        label = {"separate": "separate integration", "one": "one integrator"}[design]
+        ax.plot(n, [r["cpu"] for r in mine], marker + "-", label=f"{label}, per CPU s")
+    reference = [r for r in rows if r["design"] == DESIGNS[0]]
+    n = [r["n"] for r in reference]
+    ax.plot(n, [r["cpu_ref"] for r in reference], "s--", label="one vehicle alone")
+    ax.plot(n, [0.75 * r["cpu_ref"] for r in reference], ":", label="0.75 × alone")
     ax.set_xscale("log", base=2)
     ax.set_xlabel("vehicles N (antipodal circle)")
     ax.set_ylabel("vehicle-seconds per second")
@@ -243,8 +224,6 @@ def main(argv: list[str] | None = None) -> None:
             "",
         ]
         rows = scaling(sizes, args.processes, lines)
-        say(lines, "")
-        one_integrator(rows, lines)
         if args.figure:
             figure(rows, args.figure)
         if args.page:

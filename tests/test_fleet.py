@@ -18,7 +18,6 @@ from mfi_drake.app.flight_log import write_flight_log
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion, OtherVehicle
 from mfi_drake.config.scenario import scenario_to_yaml
-from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import vehicle_scenarios
 from mfi_drake.flight.simulation import least_separation, simulate
 from mfi_drake.maths.layout import obstacle_signal, readings
@@ -40,8 +39,6 @@ from mfi_drake.world.validation import (
     load_scenario,
     validate_scenario,
 )
-
-from .conftest import load_benchmark
 
 
 # --- the exchange ---------------------------------------------------------------
@@ -491,43 +488,3 @@ def test_a_field_failing_in_another_process_fails_the_fleet_as_at_home():
             simulate(scene, here, processes=processes)
         errors.append((type(caught.value), str(caught.value)))
     assert errors[0] == errors[1] and "on purpose" in errors[0][1]
-
-
-def test_one_integrators_steps_follow_the_busiest_vehicle_in_each_window():
-    scaling = load_benchmark("fleet_scaling")
-    w = scaling.WINDOW
-
-    def flight(times):
-        return dataclasses.make_dataclass("F", ["times"])(np.array(times))
-
-    # Steps counted in the window where they end. A: 5 steps in the first
-    # window, 1 in the second; B: 1, then 4. One integrator: 5 + 4, not the
-    # 6 + 5 of the two apart.
-    a = flight([0.0, *(w * np.array([0.1, 0.3, 0.5, 0.7, 0.9])), 1.5 * w])
-    b = flight([0.0, 0.5 * w, *(w * np.array([1.2, 1.4, 1.6, 1.8]))])
-    assert scaling.shared_steps([a, b], 2 * w) == 5 + 4
-    assert scaling.shared_steps([a], 2 * w) == 6
-    assert scaling.shared_steps([b], 2 * w) == 5
-    # A time logged twice (the step that ends at an exchange) is one step.
-    twice = flight([0.0, w / 2, w / 2, w])
-    assert scaling.shared_steps([twice], w) == 2
-
-
-def test_the_reduced_fleet_chain_hovers_at_its_goals_and_turns_without_work():
-    arrays = load_benchmark("fleet_arrays")
-    goals = np.array([[0.0, 0.0, 2.0], [3.0, 0.0, 2.0], [0.0, 3.0, 2.0]])
-    chain = arrays.ReducedFleetChain(goals)
-    x = np.zeros((3, 12))
-    x[:, 0:3] = goals
-    weight = VEHICLES["drake_default"].mass * 9.81
-    np.testing.assert_allclose(chain.rotor_forces(x), weight / 4, rtol=1e-12)
-    # Two vehicles closing head-on: point-symmetric about their midpoint, as
-    # the rule of the road is (each turns right), and ⟂ v: no work.
-    x = np.zeros((2, 12))
-    x[0, 0:3], x[0, 6:9] = [0.0, 0.0, 2.0], [1.0, 0.0, 0.0]
-    x[1, 0:3], x[1, 6:9] = [1.2, 0.05, 2.0], [-1.0, 0.0, 0.0]
-    pair = arrays.ReducedFleetChain(np.array([[9.0, 0.0, 2.0], [-9.0, 0.0, 2.0]]))
-    F_o = pair.obstacle_force(x)
-    assert np.linalg.norm(F_o[0]) > 0.1
-    np.testing.assert_allclose(F_o[1], -F_o[0], atol=1e-12)
-    np.testing.assert_allclose(np.einsum("ij,ij->i", F_o, x[:, 6:9]), 0.0, atol=1e-12)

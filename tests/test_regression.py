@@ -6,7 +6,23 @@ and the gains it was flown with, which the test layers on each scenario (so
 that tuned defaults do not move it). The paper's MFI of then is today's
 "mfi-paper" (every repair off). A change that is meant to move these flights
 regenerates the record with `python -m tests.test_regression` and says why
-in its commit."""
+in its commit.
+
+Rounding differs between CPUs (glibc's and Drake's kernels pick their
+instructions by CPU): on two machines of the same kind the same code flew
+these flights 1e-12 apart, and that moved the integrator's steps: a
+convergence time by up to 7 ms (the step that enters the tolerance), and a
+flight that does not succeed, which ends stuck against an obstacle and
+dithers there, by much more (GF's planar_wall ended 0.7 mm apart after
+14,054 against 14,004 steps), and APF, which chatters on its way
+(12,298 steps through three_spheres), flew 0.8 mm further of 19.7 m. So a
+successful flight keeps its numbers to 1e-4 and its convergence time to
+0.05 s; one that does not, its outcome exactly and its numbers to 1e-3;
+steps to 1 % and the saturated fraction of them to 1e-3 (APF's
+three_spheres: 0.0058 against 0.0054). A change to the flight code moves
+them by more (each repair moved path lengths by centimetres);
+tests/test_one_integrator.py compares two code paths on one machine bit
+for bit."""
 
 import json
 import os
@@ -39,9 +55,20 @@ def flown(name: str) -> dict:
 @pytest.mark.parametrize("name", sorted(EXPECTED))
 def test_paper_scenario_metrics_are_unchanged(name):
     for method, got in flown(name).items():
-        for key, want in EXPECTED[name][method].items():
-            if isinstance(want, float):
-                assert got[key] == pytest.approx(want, rel=1e-9, abs=1e-9), key
+        recorded = EXPECTED[name][method]
+        tolerance = 1e-4 if recorded["outcome"] == "success" else 1e-3
+        for key, want in recorded.items():
+            if key == "convergence_time" and want is not None:
+                assert got[key] == pytest.approx(want, abs=0.05), (method, key)
+            elif key == "saturated_fraction":  # a count of steps, as steps
+                assert got[key] == pytest.approx(want, abs=1e-3), (method, key)
+            elif isinstance(want, float):
+                assert got[key] == pytest.approx(want, rel=tolerance, abs=1e-9), (
+                    method,
+                    key,
+                )
+            elif key == "steps":
+                assert got[key] == pytest.approx(want, rel=0.01), (method, key)
             else:
                 assert got[key] == want, (method, key)
 

@@ -43,6 +43,8 @@ from mfi_drake.config.parameters import (
 )
 from mfi_drake.config.vehicles import VEHICLES
 
+FLEET_INTEGRATIONS = ("separate", "one")
+
 
 class ScenarioError(ValueError):
     """A scenario that cannot be flown; the message is one line for the user."""
@@ -206,6 +208,10 @@ class Scenario:
     # Hz: how often the vehicles of a fleet exchange their positions and
     # velocities (docs/fleets.md).
     exchange_hz: float = 10.0
+    # How a fleet is integrated (docs/fleets.md): "separate", a diagram and
+    # Simulator a vehicle exchanging states at exchange_hz; "one", every
+    # vehicle in one diagram and integrator, MFI compiled.
+    fleet_integration: str = "separate"
     relative_velocity: RelativeVelocity = field(default_factory=RelativeVelocity)
     navigator: NavigatorParams = field(default_factory=NavigatorParams)
     # The paper's literal MFI (method "mfi-paper"): its own gains, repairs off.
@@ -355,6 +361,13 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
             where, "other_vehicles", scenario.other_vehicles, "are flown without faults"
         )
     _check_positive(where, "exchange_hz", scenario.exchange_hz)
+    if scenario.fleet_integration not in FLEET_INTEGRATIONS:
+        fail(
+            where,
+            "fleet_integration",
+            scenario.fleet_integration,
+            f"must be one of {', '.join(FLEET_INTEGRATIONS)}",
+        )
     estimate = scenario.relative_velocity
     _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
     _check_positive(where, "relative_velocity.gate", estimate.gate)

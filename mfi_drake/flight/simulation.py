@@ -27,7 +27,9 @@ from mfi_drake.config.scenario import (
     scenario_to_yaml,
 )
 from mfi_drake.flight.diagram import FlightDiagram, build_diagram, vehicle_scenarios
+from mfi_drake.flight.fleet import OneIntegratorFleet
 from mfi_drake.flight.methods import Method
+from mfi_drake.maths.fleet import ROW_SIZE, row_slices
 from mfi_drake.maths.layout import (
     ANGULAR_RATE,
     ATTITUDE,
@@ -89,6 +91,8 @@ def simulate(
     field as "MODULE:NAME" or as the function itself (see `methods`).
     `until_settled`, `stop_at_contact`: see `fly`. With `other_vehicles`,
     every vehicle is flown (`fly_fleet`), over `processes` processes."""
+    if scenario.other_vehicles and scenario.fleet_integration == "one":
+        return fly_one_integrator(scenario, method, until_settled, stop_at_contact)
     if scenario.other_vehicles:
         return fly_fleet(scenario, method, until_settled, stop_at_contact, processes)
     return fly(build_diagram(scenario, method), until_settled, stop_at_contact)
@@ -200,30 +204,51 @@ def settled_monitor(flight: FlightDiagram):
     Used by sweeps (their flights last 60 s; MFI's settle by ~20–30 s,
     which spares a fifth of their steps); a run flies its whole duration."""
     plant, scenario = flight.plant, flight.scenario
-    goal = [float(g) for g in scenario.goal]
-    epsilon = scenario.simulator.accuracy
-    since = [None]  # when the hover began
-    # At rest: roll, pitch, the velocity and the angular rates all zero.
-    index = range(STATE_SIZE)
-    still = [*index[ATTITUDE][:2], *index[VELOCITY], *index[ANGULAR_RATE]]
+    clock = RestClock([scenario.goal], scenario.simulator.accuracy)
 
     def monitor(context) -> EventStatus:
         state = plant.GetMyContextFromRoot(context).get_continuous_state_vector()
-        x = state.CopyToVector().tolist()  # Python floats: cheap to compare
-        at_rest = (
-            max(abs(x[i] - goal[i]) for i in range(3)) <= epsilon
-            and max(abs(x[i]) for i in still) <= epsilon
-        )
-        t = context.get_time()
-        if not at_rest:
-            since[0] = None
-        elif since[0] is None:
-            since[0] = t
-        elif t - since[0] >= SETTLE_HOLD:
+        if clock.settled(context.get_time(), state.CopyToVector()[None]):
             return EventStatus.ReachedTermination(plant, "settled at the goal")
         return EventStatus.Succeeded()
 
     return monitor
+
+
+class RestClock:
+    """Whether vehicles have rested at their goals for SETTLE_HOLD: their
+    positions, velocities, roll, pitch and angular rates all within ε of a
+    hover at the goal at every step of that time (`settled_monitor`)."""
+
+    # At rest: roll, pitch, the velocity and the angular rates all zero.
+    _index = np.arange(STATE_SIZE)
+    STILL = np.r_[_index[ATTITUDE][:2], _index[VELOCITY], _index[ANGULAR_RATE]]
+
+    def __init__(self, goals, epsilon: float):
+        self._goals = np.array(goals, float)
+        self._epsilon = epsilon
+        self._since = None  # when the hover began
+
+    def settled(self, t: float, states: np.ndarray) -> bool:
+        """At time t, the vehicles at `states` (n, 12)."""
+        at_rest = (
+            np.abs(states[:, POSITION] - self._goals).max() <= self._epsilon
+            and np.abs(states[:, self.STILL]).max() <= self._epsilon
+        )
+        if not at_rest:
+            self._since = None
+        elif self._since is None:
+            self._since = t
+        return at_rest and t - self._since >= SETTLE_HOLD
+
+
+def in_contact(reading: np.ndarray, radius: float) -> bool:
+    """Whether a sphere sensor's `reading` is closer than `radius` (less
+    CONTACT_MARGIN) to the vehicle centre."""
+    for r_o, seen in readings(reading):
+        if seen > 0.5 and math.hypot(*r_o) < radius - CONTACT_MARGIN:
+            return True
+    return False
 
 
 def contact_monitor(flight: FlightDiagram):
@@ -249,9 +274,8 @@ def contact_monitor(flight: FlightDiagram):
         return lambda context: EventStatus.Succeeded()
 
     def monitor(context) -> EventStatus:
-        for r_o, seen in readings(port.Eval(sensor.GetMyContextFromRoot(context))):
-            if seen > 0.5 and math.hypot(*r_o) < radius - CONTACT_MARGIN:
-                return EventStatus.ReachedTermination(sensor, "in contact")
+        if in_contact(port.Eval(sensor.GetMyContextFromRoot(context)), radius):
+            return EventStatus.ReachedTermination(sensor, "in contact")
         return EventStatus.Succeeded()
 
     return monitor
@@ -516,6 +540,93 @@ def fly_fleet(
             group.close()
     for flight in flights:
         flight.cpu_time = cpu_time
+    for other in flights[1:]:
+        other.metrics = flight_metrics(other)
+    result = flights[0]
+    result.others = flights[1:]
+    result.metrics = flight_metrics(result)
+    return result
+
+
+def one_integrator_monitor(
+    fleet: OneIntegratorFleet, until_settled: bool, stop_at_contact: bool
+):
+    """A Simulator monitor: ends the flight at a contact (two vehicles'
+    spheres, or a scene sensor's reading, closer than the collision
+    radius) with `stop_at_contact`, and once every vehicle has rested at
+    its goal for SETTLE_HOLD (`simulation.settled_monitor`'s test) with
+    `until_settled`."""
+    radius = fleet.vehicle.collision_radius
+    n = len(fleet.flown)
+    clock = RestClock([s.goal for s in fleet.flown], fleet.scenario.simulator.accuracy)
+    pairs = np.triu_indices(n, 1)
+
+    def monitor(context) -> EventStatus:
+        states = fleet.states.get_output_port(0).Eval(
+            fleet.states.GetMyContextFromRoot(context)
+        )
+        x = states.reshape(n, STATE_SIZE)
+        if stop_at_contact:
+            p = x[:, POSITION]
+            gaps = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=2)[pairs]
+            if (gaps < 2.0 * radius - CONTACT_MARGIN).any():
+                return EventStatus.ReachedTermination(fleet.chain, "vehicles touch")
+            for sensor in fleet.sensors:
+                port = sensor.get_output_port(0)
+                if in_contact(port.Eval(sensor.GetMyContextFromRoot(context)), radius):
+                    return EventStatus.ReachedTermination(sensor, "in contact")
+        if until_settled and clock.settled(context.get_time(), x):
+            return EventStatus.ReachedTermination(fleet.chain, "every vehicle settled")
+        return EventStatus.Succeeded()
+
+    return monitor
+
+
+def fly_one_integrator(
+    scenario: Scenario,
+    method: "str | Method" = "mfi",
+    until_settled: bool = False,
+    stop_at_contact: bool = False,
+) -> Flight:
+    """Flies a fleet on one integrator (the module docstring). Returns the
+    first vehicle's Flight with the others in `others`, each with the
+    single-vehicle log layout; wall and CPU times are the fleet's."""
+    fleet_diagram = OneIntegratorFleet(scenario, method)
+    simulator = simulator_at_start(
+        fleet_diagram.diagram, fleet_diagram.plants[0], scenario
+    )
+    context = simulator.get_mutable_context()
+    for plant, flown in zip(
+        fleet_diagram.plants[1:], fleet_diagram.flown[1:], strict=True
+    ):
+        place_at_start(plant, context, flown.start)
+    # Only where nothing but the vehicles moves (`settles` without them).
+    quiet = until_settled and settles(replace(scenario, other_vehicles=[]))
+    if stop_at_contact or quiet:
+        simulator.set_monitor(
+            one_integrator_monitor(fleet_diagram, quiet, stop_at_contact)
+        )
+    wall_time, cpu_time = run_timed(simulator, scenario.duration)
+    integrator = simulator.get_integrator()
+    log = fleet_diagram.logger.FindLog(context)
+    times = log.sample_times().copy()
+    data = log.data().T.reshape(len(times), len(fleet_diagram.flown), ROW_SIZE)
+    slices = row_slices()
+    flights = [
+        Flight(
+            scenario=flown,
+            method=fleet_diagram.method,
+            sensor="sphere",
+            collision_radius=fleet_diagram.vehicle.collision_radius,
+            times=times,
+            log={name: data[:, k, s] for name, s in slices.items()},
+            wall_time=wall_time,
+            cpu_time=cpu_time,
+            integrator_steps=integrator.get_num_steps_taken(),
+            derivative_evaluations=integrator.get_num_derivative_evaluations(),
+        )
+        for k, flown in enumerate(fleet_diagram.flown)
+    ]
     for other in flights[1:]:
         other.metrics = flight_metrics(other)
     result = flights[0]

@@ -115,7 +115,11 @@ def _continuous_tangent(n, r_g) -> tuple:
     l_g = _divided(r_g, distance) if distance > TINY else _zeros(n[0])
     along = dot(l_g, n)
     z, x = _cross(E_Z, n), _cross(E_X, n)
-    t = tuple(((l_g[i] - along * n[i]) + 0.1 * z[i]) + 0.01 * x[i] for i in range(3))
+    t = (
+        ((l_g[0] - along * n[0]) + 0.1 * z[0]) + 0.01 * x[0],
+        ((l_g[1] - along * n[1]) + 0.1 * z[1]) + 0.01 * x[1],
+        ((l_g[2] - along * n[2]) + 0.1 * z[2]) + 0.01 * x[2],
+    )
     size = norm(t)
     return _divided(t, size) if size > TINY else _fallback_tangent(n, r_g)
 
@@ -453,6 +457,12 @@ def _goal_attraction(v, speed, l_a, r_g, K_omega: float, smooth: bool) -> tuple:
     l_g = _divided(r_g, distance)
     if smooth:
         return _scaled(_cross(entries(smooth_turn(l_a, l_g)), v), K_omega)
+    return _paper_attraction(v, l_a, l_g, K_omega)
+
+
+def _paper_attraction(v, l_a, l_g, K_omega: float) -> tuple:
+    """Eq 16–18 as the paper turns (`goal_attraction_field` without
+    `smooth`)."""
     turn = bisector_turn(l_a, l_g)
     if turn is not None:
         return _scaled(_cross(entries(turn), v), K_omega)
@@ -495,7 +505,11 @@ def terminal_pd_field(
     """Eq 20: F_pd = −K_P (p − p_g) − K_D ṗ, its norm saturated at max_pd_force."""
     k_p, k_d = -params.K_P, params.K_D
     p, v, goal = entries(p), entries(v), entries(goal)
-    F = tuple(k_p * (p[i] - goal[i]) - k_d * v[i] for i in range(3))
+    F = (
+        k_p * (p[0] - goal[0]) - k_d * v[0],
+        k_p * (p[1] - goal[1]) - k_d * v[1],
+        k_p * (p[2] - goal[2]) - k_d * v[2],
+    )
     size = norm(F)
     if size > params.max_pd_force:
         F = _scaled(F, params.max_pd_force / size)

@@ -25,6 +25,14 @@ import math
 
 import numpy as np
 
+from mfi_drake.maths.fields import superposed
+from mfi_drake.maths.layout import (
+    OBSTACLE_COUNT,
+    OBSTACLE_SIGNAL_SIZE,
+    POSITION,
+    READING_SIZE,
+    VELOCITY,
+)
 from mfi_drake.maths.so3 import dot, entries, norm
 
 
@@ -81,9 +89,10 @@ def along_normal(r_o: np.ndarray, u: np.ndarray) -> np.ndarray:
     distance = norm(r_o)
     if distance == 0.0:
         return np.zeros(3)
-    n = [x / distance for x in entries(r_o)]
+    r0, r1, r2 = entries(r_o)
+    n = (r0 / distance, r1 / distance, r2 / distance)
     along = dot(n, u)
-    return np.array([x * along for x in n])
+    return np.array([n[0] * along, n[1] * along, n[2] * along])
 
 
 def turned_right(w: np.ndarray, degrees: float) -> np.ndarray:
@@ -109,8 +118,124 @@ def keep_own_pace(
     speed = norm(v)
     if speed == 0.0:
         return own
-    along = [x / speed for x in entries(v)]
+    v0, v1, v2 = entries(v)
+    along = (v0 / speed, v1 / speed, v2 / speed)
     r, o = entries(relative), entries(own)
-    k = dot([r[i] - o[i] for i in range(3)], along)
+    k = dot((r[0] - o[0], r[1] - o[1], r[2] - o[2]), along)
     w = min(1.0, speed / blend_speed)
-    return np.array([o[i] + w * (r[i] - k * along[i] - o[i]) for i in range(3)])
+    return np.array(
+        [
+            o[0] + w * (r[0] - k * along[0] - o[0]),
+            o[1] + w * (r[1] - k * along[1] - o[1]),
+            o[2] + w * (r[2] - k * along[2] - o[2]),
+        ]
+    )
+
+
+def relative_field(
+    field,
+    x: np.ndarray,
+    obstacle: np.ndarray,
+    u: np.ndarray,
+    turns: np.ndarray,
+    goal: np.ndarray,
+    collision_radius: float,
+    params,
+    own_pace: bool,
+    blend_speed: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(F_o, [A, B]) of an obstacle field `field` (`fields.superposed`'s)
+    summed over the readings, each seen reading's terms computed alone with
+    the velocity relative to its obstacle, v − u_i (u: 3 per reading),
+    turned `turns[i]` degrees right (`turned_right`, the rule of the road;
+    0 for an obstacle). With `own_pace` the force and each term keep the
+    pace of the field computed with v itself (`keep_own_pace`). Nothing
+    seen: zero, as `superposed` gives."""
+    force, terms = np.zeros(3), np.zeros(6)
+    p, v = x[POSITION], x[VELOCITY]
+    r_g = goal - p
+    seen = False
+    for i in range(OBSTACLE_COUNT):
+        if obstacle[READING_SIZE * i + 3] <= 0.5:
+            continue
+        seen = True
+        w = v - u[3 * i : 3 * i + 3]
+        if turns[i]:
+            w = turned_right(w, turns[i])
+        alone = np.zeros(OBSTACLE_SIGNAL_SIZE)
+        alone[0:3] = obstacle[READING_SIZE * i : READING_SIZE * i + 3]
+        alone[3] = 1.0
+        A, B = superposed(field, w, alone, r_g, collision_radius, params)
+        force = force + (A + B)
+        terms = terms + np.concatenate((A, B))
+    if not seen or not own_pace:
+        return force, terms
+    A, B = superposed(field, v, obstacle, r_g, collision_radius, params)
+    own = np.concatenate((A, B))
+    paced = np.concatenate(
+        (
+            keep_own_pace(terms[0:3], own[0:3], v, blend_speed),
+            keep_own_pace(terms[3:6], own[3:6], v, blend_speed),
+        )
+    )
+    return keep_own_pace(force, A + B, v, blend_speed), paced
+
+
+def _length(x, y, z):
+    """|(x, y, z)| (`maths.compiled` replaces it: numba's hypot takes two)."""
+    return math.hypot(x, y, z)
+
+
+def vehicle_readings(
+    p: np.ndarray,
+    scene: np.ndarray,
+    centres: np.ndarray,
+    velocities: np.ndarray,
+    radius: float,
+    reach: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A sphere sensor's readings at p with other vehicles added: the
+    OBSTACLE_COUNT nearest of the scene's readings `scene` and of the
+    spheres of radius `radius` at `centres` (m, 3) within `reach` of the
+    sphere around p (a sphere's closest point, as SceneGraph gives it: r_o =
+    (|d| − ρ) d/|d|, d from p to the centre), nearest first (ties: the
+    scene's first, then the vehicles in order). Returns (the readings, per
+    reading its vehicle's velocity along the reading's normal
+    (`along_normal`, 3 each; zero for the scene's), per reading 1 where it
+    is a vehicle, else 0)."""
+    m = len(centres)
+    gaps = np.zeros(OBSTACLE_COUNT + m)
+    points = np.zeros((OBSTACLE_COUNT + m, 3))
+    moving = np.full(OBSTACLE_COUNT + m, -1)  # the vehicle's index, or −1
+    found = 0
+    for i in range(OBSTACLE_COUNT):
+        j = READING_SIZE * i
+        if scene[j + 3] > 0.5:
+            gaps[found] = _length(scene[j], scene[j + 1], scene[j + 2])
+            points[found] = scene[j : j + 3]
+            found += 1
+    statics = found
+    limit = (reach + radius) ** 2
+    for k in range(m):
+        d = centres[k] - p
+        if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > limit:
+            continue
+        length = _length(d[0], d[1], d[2])
+        gaps[found] = length - radius
+        if length > 0.0:
+            points[found] = d * (gaps[found] / length)
+        moving[found] = k
+        found += 1
+    u, vehicle = np.zeros(3 * OBSTACLE_COUNT), np.zeros(OBSTACLE_COUNT)
+    if found == statics:
+        return scene, u, vehicle
+    signal = np.zeros(OBSTACLE_SIGNAL_SIZE)
+    order = np.argsort(gaps[:found], kind="mergesort")  # stable: ties in order
+    for i in range(min(found, OBSTACLE_COUNT)):
+        c = order[i]
+        signal[READING_SIZE * i : READING_SIZE * i + 3] = points[c]
+        signal[READING_SIZE * i + 3] = 1.0
+        if moving[c] >= 0:
+            u[3 * i : 3 * i + 3] = along_normal(points[c], velocities[moving[c]])
+            vehicle[i] = 1.0
+    return signal, u, vehicle

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from mfi_drake.maths.layout import ANGULAR_RATE, ATTITUDE, ROTORS, VELOCITY
 from mfi_drake.maths.so3 import cos, entries, floor, sin, sqrt
 
 if TYPE_CHECKING:  # annotations only: the maths layer needs no configuration
@@ -144,7 +145,7 @@ def attitude_setpoint(
     if params.brake_first and v is not None:
         F_x, F_y, F_z = _brake_first(F, entries(v), level, weight, params)
     else:
-        k = _delivered_scale(*F, level, weight, params)
+        k = _delivered_scale(F[0], F[1], F[2], level, weight, params)
         F_x, F_y, F_z = k * F[0], k * F[1], k * F[2]
     T = (F_z + weight) / level
     f_x = params.K_Pv * F_x
@@ -153,6 +154,23 @@ def attitude_setpoint(
     pitch_d = (c * f_x + s * f_y) / T
     roll_d = -(-s * f_x + c * f_y) / T
     return np.array([T, roll_d, pitch_d, yaw_desired])
+
+
+def attitude_command(
+    x: np.ndarray,
+    F_n: np.ndarray,
+    vehicle: Vehicle,
+    params: NavigatorParams,
+    K_P: np.ndarray,
+    K_D: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The attitude PD's outputs at state x for F_n: ([T, τ] (4, eq 25 with
+    `attitude_setpoint`'s T), [T, roll_d, pitch_d, yaw_d] (4, eq 21–24))."""
+    attitude, rates, v = x[ATTITUDE], x[ANGULAR_RATE], x[VELOCITY]
+    yaw_d = desired_yaw(v, attitude[2], params)
+    setpoint = attitude_setpoint(F_n, attitude, yaw_d, vehicle, params, v)
+    tau = attitude_pd_torque(attitude, rates, setpoint[1:4], K_P, K_D)
+    return np.concatenate((setpoint[:1], tau)), setpoint
 
 
 def wrap_angle(angle):
@@ -193,12 +211,14 @@ def attitude_pd_torque(
     # On Python scalars: cheaper than numpy on 3-vectors.
     roll, pitch, yaw = entries(attitude)
     roll_d, pitch_d, yaw_d = entries(desired)
-    error = (roll - roll_d, pitch - pitch_d, wrap_angle(yaw - yaw_d))
-    rates = entries(attitude_rates)
+    P0, P1, P2 = entries(K_P)
+    D0, D1, D2 = entries(K_D)
+    r0, r1, r2 = entries(attitude_rates)
     return np.array(
         [
-            -(P * e + D * r)
-            for P, e, D, r in zip(entries(K_P), error, entries(K_D), rates, strict=True)
+            -(P0 * (roll - roll_d) + D0 * r0),
+            -(P1 * (pitch - pitch_d) + D1 * r1),
+            -(P2 * wrap_angle(yaw - yaw_d) + D2 * r2),
         ]
     )
 
@@ -232,13 +252,14 @@ def mix(thrust_torque: np.ndarray, D_inv, u_max: float):
     # Per-rotor lists of Python scalars: cheaper than 4-element arrays.
     T, tau_x, tau_y, tau_z = entries(thrust_torque)
     D = entries(D_inv)
-    roll_pitch = [row[1] * tau_x + row[2] * tau_y for row in D]
-    yaw = [row[3] * tau_z for row in D]
+    roll_pitch = [D[i][1] * tau_x + D[i][2] * tau_y for i in range(ROTORS)]
+    yaw = [D[i][3] * tau_z for i in range(ROTORS)]
     limited = False
     low, high = min(roll_pitch), max(roll_pitch)
     if high - low > u_max:
         scale = u_max / (high - low)
-        roll_pitch = [x * scale for x in roll_pitch]
+        for i in range(ROTORS):
+            roll_pitch[i] = roll_pitch[i] * scale
         low, high = low * scale, high * scale
         limited = True
     collective = D[0][0] * T  # every rotor carries a quarter of T
@@ -246,18 +267,21 @@ def mix(thrust_torque: np.ndarray, D_inv, u_max: float):
         collective, limited = -low + 0.0 * collective, True
     elif collective > u_max - high:
         collective, limited = u_max - high + 0.0 * collective, True
-    u = [collective + x for x in roll_pitch]
+    u = [collective + roll_pitch[i] for i in range(ROTORS)]
     s = 1.0
-    for u_i, y_i in zip(u, yaw, strict=True):
-        if y_i > 0.0 and u_i + y_i > u_max:
-            s = min(s, (u_max - u_i) / y_i)
-        elif y_i < 0.0 and u_i + y_i < 0.0:
-            s = min(s, -u_i / y_i)
+    for i in range(ROTORS):
+        if yaw[i] > 0.0 and u[i] + yaw[i] > u_max:
+            s = min(s, (u_max - u[i]) / yaw[i])
+        elif yaw[i] < 0.0 and u[i] + yaw[i] < 0.0:
+            s = min(s, -u[i] / yaw[i])
     if s < 1.0:
         limited = True
         s = max(s, 0.0)
-    u = np.array([u_i + s * y_i for u_i, y_i in zip(u, yaw, strict=True)])
+    forces = np.array([u[i] + s * yaw[i] for i in range(ROTORS)])
     if not limited:
-        return u, 0
-    at_limit = sum(1 for u_i in u if u_i <= 1e-9 * u_max or u_i >= u_max * (1 - 1e-9))
-    return u, max(at_limit, 1)
+        return forces, 0
+    at_limit = 0
+    for i in range(ROTORS):
+        if forces[i] <= 1e-9 * u_max or forces[i] >= u_max * (1 - 1e-9):
+            at_limit += 1
+    return forces, max(at_limit, 1)

@@ -8,6 +8,7 @@ from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from mfi_drake.config.scenario import Scenario
+from mfi_drake.flight.fleet import check_one_integrator
 from mfi_drake.flight.methods import METHODS, Method, appearance
 from mfi_drake.flight.simulation import Flight, outcome, simulate
 from mfi_drake.world.validation import load_scenario
@@ -20,7 +21,9 @@ MFI_VARIANTS = ("mfi", "mfi-paper")
 def compare(
     scenario: Scenario, methods: "list[str | Callable | Method]"
 ) -> list[Flight]:
-    """Flies `scenario` once with each method."""
+    """Flies `scenario` once with each method (a fleet on one integrator:
+    after checking that it can fly every one)."""
+    check_one_integrator(scenario, methods)
     return [simulate(scenario, method) for method in methods]
 
 

@@ -70,6 +70,7 @@ from mfi_drake.config.scenario import (
 )
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_json, write_text
+from mfi_drake.flight.fleet import check_one_integrator
 from mfi_drake.flight.methods import METHODS, MethodError, import_field, resolve_method
 from mfi_drake.flight.simulation import OUTCOMES as FLIGHT_OUTCOMES
 from mfi_drake.flight.simulation import outcome, simulate
@@ -686,6 +687,7 @@ def run_sweep(
             scenario = field_to_fly(config, tasks, modify, key.density, key.index)
             if not fields:
                 validate_scenario(scenario, scenario.name)
+                check_one_integrator(scenario, config.methods)
             fields[field_key] = scenario
             texts[field_key] = scenario_to_yaml(scenario)
             if field_key not in known:

@@ -11,17 +11,12 @@ from pydrake.systems.scalar_conversion import TemplateSystem
 
 from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.maths.layout import (
-    ANGULAR_RATE,
-    ATTITUDE,
     ROTORS,
     STATE_SIZE,
-    VELOCITY,
 )
 from mfi_drake.maths.quadcopter import (
+    attitude_command,
     attitude_gains,
-    attitude_pd_torque,
-    attitude_setpoint,
-    desired_yaw,
     mix,
     mixer_matrix,
 )
@@ -89,13 +84,9 @@ def AttitudePD_(T):
             return self._last(x.tobytes() + F_n.tobytes(), self._outputs_of, x, F_n)
 
         def _outputs_of(self, x, F_n):
-            attitude, rates = x[ATTITUDE], x[ANGULAR_RATE]
-            yaw_d = desired_yaw(x[VELOCITY], attitude[2], self.params)
-            setpoint = attitude_setpoint(
-                F_n, attitude, yaw_d, self.vehicle, self.params, x[VELOCITY]
+            return attitude_command(
+                x, F_n, self.vehicle, self.params, self.K_P, self.K_D
             )
-            tau = attitude_pd_torque(attitude, rates, setpoint[1:4], self.K_P, self.K_D)
-            return np.concatenate([setpoint[:1], tau]), setpoint
 
     return Impl
 

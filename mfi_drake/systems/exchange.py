@@ -19,8 +19,6 @@ The message a vehicle receives (`message`): [t_k, the others' positions,
 the others' velocities], the others in the fleet's order without it.
 """
 
-import math
-
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
@@ -38,11 +36,9 @@ from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,
     POSITION,
-    READING_SIZE,
     STATE_SIZE,
-    obstacle_signal,
 )
-from mfi_drake.maths.motion import along_normal
+from mfi_drake.maths.motion import vehicle_readings
 from mfi_drake.systems.last_result import LastResult
 from mfi_drake.systems.relative import VELOCITY_SIGNAL_SIZE
 from mfi_drake.systems.sensors import VEHICLE_RGBA
@@ -138,35 +134,11 @@ class OtherVehicleReadings(LeafSystem):
 def merge(
     p, scene, received, t, radius, reach
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """`OtherVehicleReadings`' outputs at position p and time t."""
+    """`OtherVehicleReadings`' outputs at position p and time t: the
+    others where the message `received` puts them at t
+    (`maths.motion.vehicle_readings`)."""
     centres, velocities = extrapolated(received, t)
-    d = centres - p
-    near = np.flatnonzero(np.einsum("ij,ij->i", d, d) <= (reach + radius) ** 2)
-    if not near.size:
-        return scene, NOTHING_MOVES, NO_VEHICLE
-    found = []  # (distance, r_o, velocity or None)
-    signal = scene.tolist()
-    for i in range(0, len(signal), READING_SIZE):
-        if signal[i + 3] > 0.5:
-            found.append((math.hypot(*signal[i : i + 3]), scene[i : i + 3], None))
-    for j in near.tolist():
-        length = math.hypot(*d[j])
-        gap = length - radius
-        r_o = d[j] * (gap / length) if length > 0.0 else np.zeros(3)
-        found.append((gap, r_o, velocities[j]))
-    found.sort(key=lambda f: f[0])
-    found = found[:OBSTACLE_COUNT]
-    u = np.zeros((OBSTACLE_COUNT, 3))
-    vehicle = np.zeros(OBSTACLE_COUNT)
-    for i, (_, r_o, v) in enumerate(found):
-        if v is not None:
-            u[i] = along_normal(r_o, v)
-            vehicle[i] = 1.0
-    return obstacle_signal([r_o for _, r_o, _ in found]), u.ravel(), vehicle
-
-
-NOTHING_MOVES = np.zeros(VELOCITY_SIGNAL_SIZE)
-NO_VEHICLE = np.zeros(OBSTACLE_COUNT)
+    return vehicle_readings(p, scene, centres, velocities, radius, reach)
 
 
 class OtherVehicleSpheres(LeafSystem):

@@ -32,17 +32,14 @@ from mfi_drake.maths.layout import (
     OBSTACLE_SIGNAL_SIZE,
     POSITION,
     STATE_SIZE,
-    VELOCITY,
-    obstacle_signal,
     readings,
 )
 from mfi_drake.maths.motion import (
     PACE_BLEND_SPEED,
     along_normal,
-    keep_own_pace,
     match_points,
     normal_velocity,
-    turned_right,
+    relative_field,
 )
 from mfi_drake.systems.last_result import LastResult
 
@@ -220,53 +217,23 @@ class RelativeNavigator(LeafSystem):
         key = x.tobytes() + obstacle.tobytes() + u.tobytes() + turns.tobytes()
         return self._last(key, self._forces_of, x, obstacle, u, turns)
 
-    def _terms(self, x, obstacle):
-        A, B, F_o = self._navigator.terms_of(x, obstacle)
-        return F_o, np.concatenate([A, B])
-
     def _forces_of(self, x, obstacle, u, turns):
-        force, terms = np.zeros(3), np.zeros(6)
-        # An unseen reading's terms are zero (`fields.superposed`), and with
-        # nothing seen so is the own field: skipped, as superposed skips them.
-        seen = [i for i, (_, s) in enumerate(readings(obstacle)) if s > 0.5]
-        if not seen:
-            return force, terms
-        for i in seen:
-            relative = _relative(x, u, i, turns[i])
-            F_i, terms_i = self._terms(relative, _alone(obstacle, i))
-            force, terms = force + F_i, terms + terms_i
-        if not self._own_pace:
-            return force, terms
-        own_force, own_terms = self._terms(x, obstacle)
-        v = x[VELOCITY]
-        return self._paced(force, own_force, v), self._paced(terms, own_terms, v)
-
-    def _paced(self, relative, own, v):
-        """Each 3-vector of `relative` with the pace of `own`'s."""
-        return np.concatenate(
-            [
-                keep_own_pace(relative[k : k + 3], own[k : k + 3], v, self._blend)
-                for k in range(0, len(relative), 3)
-            ]
+        navigator = self._navigator
+        return relative_field(
+            navigator.field,
+            x,
+            obstacle,
+            u,
+            turns,
+            navigator.goal,
+            navigator.collision_radius,
+            navigator.params,
+            self._own_pace,
+            self._blend,
         )
 
 
-def _relative(x: np.ndarray, u: np.ndarray, i: int, turn: float) -> np.ndarray:
-    """x with the velocity relative to reading i's obstacle, turned `turn`
-    degrees right (the rule of the road; 0 for an obstacle)."""
-    relative = x.copy()
-    relative[VELOCITY] -= u[3 * i : 3 * i + 3]
-    if turn:
-        relative[VELOCITY] = turned_right(relative[VELOCITY], turn)
-    return relative
-
-
 NO_TURNS = np.zeros(OBSTACLE_COUNT)
-
-
-def _alone(obstacle: np.ndarray, i: int) -> np.ndarray:
-    """The signal of seen reading i alone."""
-    return obstacle_signal([readings(obstacle)[i][0]])
 
 
 def relative_navigator(

@@ -1,0 +1,152 @@
+"""A fleet flown by one integrator (`fleet_integration: one`, docs/fleets.md
+"One integrator"):
+
+    SceneGraph ──query──▶ scene sensors (one a vehicle, only where the
+        │                  scene has obstacles or a ground)
+        ▼                          │ scene
+    plants' states ──▶ FleetChain ◀┘ ──rows──▶ logger
+        ▲                  │ rotor_forces
+        └── N QuadrotorPlants ◀┘
+
+N of Drake's QuadrotorPlant, one `systems.fleet.FleetChain` (MFI's chain
+compiled, every vehicle in one call), one Simulator with the scenario's
+error-controlled integrator, one logger: every vehicle sees the others
+where they are, with no exchange. The other design, a diagram and
+Simulator a vehicle exchanging states at `exchange_hz`, is
+`simulation.fly_fleet`; `simulation.fly_one_integrator` flies this one.
+"""
+
+from pydrake.geometry import SceneGraph
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import (
+    Demultiplexer,
+    LogVectorOutput,
+    Multiplexer,
+)
+
+from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.flight.diagram import make_plant, vehicle_scenarios
+from mfi_drake.flight.methods import Method, resolve_method
+from mfi_drake.maths import fields
+from mfi_drake.maths.layout import (
+    OBSTACLE_SIGNAL_SIZE,
+    ROTORS,
+    STATE_SIZE,
+)
+from mfi_drake.maths.motion import PACE_BLEND_SPEED
+from mfi_drake.systems.fleet import FleetChain
+from mfi_drake.systems.navigation import GoalAttractionSelector, ObstacleNavigator
+from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
+from mfi_drake.world.motion import obstacles_move
+from mfi_drake.world.obstacles import register_obstacles
+
+
+def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
+    """Why `scenario` cannot be flown by `method` on one integrator (a
+    sentence naming the field or method), or None where it can: MFI's field
+    and eq 21 selector, with the smooth goal turn (eq 16–18's rotations are
+    not compiled, `maths.compiled`), the sphere sensor, the relative
+    velocity, no moving obstacle."""
+    method = resolve_method(method)
+    vehicle = VEHICLES[scenario.vehicle]
+    navigator = method.navigator(scenario, vehicle)
+    selector = method.goal_attraction(scenario, vehicle)
+    if not (
+        isinstance(navigator, ObstacleNavigator)
+        and navigator.field is fields.obstacle_field
+        and isinstance(selector, GoalAttractionSelector)
+        and selector.mass is not None
+        and selector.fixed_mode is None
+    ):
+        return f"method {method.name}: one integrator flies MFI's field only"
+    if not navigator.params.smooth_goal_turn:
+        return f"{method.parameters}.smooth_goal_turn = false: not compiled"
+    if not isinstance(scenario.sensor, SphereSensor):
+        return "sensor: one integrator flies the sphere sensor only"
+    if obstacles_move(scenario):
+        return "obstacles: one integrator flies no moving obstacle"
+    if not scenario.relative_velocity.enabled:
+        return "relative_velocity.enabled = false: one integrator flies with it"
+    return None
+
+
+def check_one_integrator(scenario: Scenario, methods: list) -> None:
+    """Raises ScenarioError where `scenario` asks for one integrator and a
+    method of `methods` cannot be flown so (`unsupported`)."""
+    if not scenario.other_vehicles or scenario.fleet_integration != "one":
+        return
+    for method in methods:
+        reason = unsupported(scenario, method)
+        if reason is not None:
+            raise ScenarioError(
+                f"{scenario.name}: fleet_integration = 'one': {reason} "
+                "(fleet_integration: separate flies it)"
+            )
+
+
+class OneIntegratorFleet:
+    """The diagram of the module docstring and its handles."""
+
+    def __init__(self, scenario: Scenario, method: "str | Method"):
+        check_one_integrator(scenario, [method])
+        method = resolve_method(method)
+        self.scenario, self.method = scenario, method.name
+        self.vehicle = VEHICLES[scenario.vehicle]
+        self.flown = vehicle_scenarios(scenario)
+        n = len(self.flown)
+        builder = DiagramBuilder()
+        scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
+        register_obstacles(scene_graph, scenario)
+        self.plants = [
+            builder.AddNamedSystem(f"quadrotor_{k}", make_plant(self.vehicle))
+            for k in range(n)
+        ]
+        states = builder.AddNamedSystem("states", Multiplexer([STATE_SIZE] * n))
+        for k, plant in enumerate(self.plants):
+            builder.Connect(plant.get_output_port(0), states.get_input_port(k))
+        params = method.navigator(scenario, self.vehicle).params
+        estimate = scenario.relative_velocity
+        scene = bool(scenario.obstacles) or scenario.ground is not None
+        chain = builder.AddNamedSystem(
+            "fleet_chain",
+            FleetChain(
+                [s.goal for s in self.flown],
+                params,
+                self.vehicle,
+                scenario.sensor.radius,
+                estimate.keep_right,
+                estimate.own_pace,
+                PACE_BLEND_SPEED,
+                scene,
+            ),
+        )
+        builder.Connect(states.get_output_port(0), chain.GetInputPort("states"))
+        self.sensors = []
+        if scene:
+            readings = builder.AddNamedSystem(
+                "scene", Multiplexer([OBSTACLE_SIGNAL_SIZE] * n)
+            )
+            for k, plant in enumerate(self.plants):
+                sensor = builder.AddNamedSystem(
+                    f"scene_sensor_{k}", SphereSensorSystem(scenario.sensor.radius)
+                )
+                builder.Connect(
+                    scene_graph.get_query_output_port(), sensor.GetInputPort("query")
+                )
+                builder.Connect(plant.get_output_port(0), sensor.GetInputPort("state"))
+                builder.Connect(sensor.get_output_port(0), readings.get_input_port(k))
+                self.sensors.append(sensor)
+            builder.Connect(readings.get_output_port(0), chain.GetInputPort("scene"))
+        rotors = builder.AddNamedSystem("rotors", Demultiplexer(ROTORS * n, ROTORS))
+        builder.Connect(chain.GetOutputPort("rotor_forces"), rotors.get_input_port(0))
+        for k, plant in enumerate(self.plants):
+            builder.Connect(rotors.get_output_port(k), plant.get_input_port(0))
+        # publish_period 0: the sink records once per integrator step.
+        self.logger = LogVectorOutput(
+            chain.GetOutputPort("rows"), builder, publish_period=0.0
+        )
+        self.logger.set_name("logger")
+        self.chain, self.states = chain, states
+        self.diagram = builder.Build()
+        self.diagram.set_name(f"mfi_drake[{scenario.name}, {self.method}, fleet]")

@@ -1,0 +1,122 @@
+"""A fleet's whole chain in one call: for every vehicle, its readings of the
+others, the relative obstacle field (eq 11–15), eq 21's goal terms (eq
+16–20), the attitude PD (eq 22–25) and the mixer (eq 8), composed of the
+functions the single-vehicle systems call, in the order they call them
+(docs/fleets.md, "One integrator"). Plain Python, so it runs as it is;
+`maths.compiled` compiles it for `systems.fleet.FleetChain`.
+"""
+
+import numpy as np
+
+from mfi_drake.maths.fields import goal_terms, next_mode
+from mfi_drake.maths.layout import POSITION, VELOCITY
+from mfi_drake.maths.motion import relative_field, vehicle_readings
+from mfi_drake.maths.quadcopter import attitude_command, mix
+
+# A vehicle's row of `fleet_chain`: what the single-vehicle diagram logs, in
+# its order (`flight.diagram.LOG_LAYOUT`).
+ROW = (
+    ("state", 12),
+    ("obstacle", 12),
+    ("obstacle_force_terms", 6),
+    ("goal_force_terms", 9),
+    ("navigation_force", 3),
+    ("mode", 1),
+    ("attitude_setpoint", 4),
+    ("propeller_force", 4),
+    ("saturation", 1),
+)
+ROW_SIZE = sum(size for _, size in ROW)
+
+
+def row_slices() -> dict[str, slice]:
+    """Where each entry of ROW lies in a row."""
+    slices, start = {}, 0
+    for name, size in ROW:
+        slices[name] = slice(start, start + size)
+        start += size
+    return slices
+
+
+def fleet_chain(
+    field,
+    states: np.ndarray,
+    scene: np.ndarray,
+    modes: np.ndarray,
+    goals: np.ndarray,
+    params,
+    vehicle,
+    K_P: np.ndarray,
+    K_D: np.ndarray,
+    D_inv: np.ndarray,
+    radius: float,
+    reach: float,
+    keep_right: float,
+    own_pace: bool,
+    blend_speed: float,
+    rows: np.ndarray,
+) -> None:
+    """Fills `rows` (N, ROW_SIZE) with each vehicle's ROW at the fleet's
+    `states` (N, 12) under the obstacle field `field`
+    (`fields.obstacle_field`, or its compiled form). Vehicle k sees the
+    scene's readings `scene[k]` and the others' collision spheres (radius
+    `radius`, within the sensor's `reach`; `vehicle_readings`), flies eq
+    21's `modes[k]` toward `goals[k]`. `params`, `vehicle`: MFI's
+    parameters and the vehicle (`compiled.record` for the compiled form);
+    K_P, K_D: eq 25's gains; D_inv: eq 8 inverted; keep_right, own_pace,
+    blend_speed: the relative field's (`relative_field`)."""
+    n = len(states)
+    others, moving = np.zeros((n - 1, 3)), np.zeros((n - 1, 3))
+    for k in range(n):
+        x = states[k]
+        p, v = x[POSITION], x[VELOCITY]
+        j = 0
+        for i in range(n):
+            if i != k:
+                others[j], moving[j] = states[i][POSITION], states[i][VELOCITY]
+                j += 1
+        obstacle, u, flags = vehicle_readings(
+            p, scene[k], others, moving, radius, reach
+        )
+        F_o, terms = relative_field(
+            field,
+            x,
+            obstacle,
+            u,
+            keep_right * flags,
+            goals[k],
+            radius,
+            params,
+            own_pace,
+            blend_speed,
+        )
+        mode, goal = modes[k], goals[k]
+        F_gc, F_v, F_pd = goal_terms(mode, p, v, goal, params, F_o, vehicle.mass)
+        F_n = F_o + F_gc + F_v + F_pd
+        thrust_torque, setpoint = attitude_command(x, F_n, vehicle, params, K_P, K_D)
+        u_rotor, saturated = mix(thrust_torque, D_inv, vehicle.u_max)
+        rows[k] = np.concatenate(
+            (
+                x,
+                obstacle,
+                terms,
+                F_gc,
+                F_v,
+                F_pd,
+                F_n,
+                np.array([float(modes[k])]),
+                setpoint,
+                u_rotor,
+                np.array([float(saturated)]),
+            )
+        )
+
+
+def fleet_modes(
+    states: np.ndarray, goals: np.ndarray, modes: np.ndarray, params, out: np.ndarray
+) -> None:
+    """Fills `out` with the mode eq 21 selects for each vehicle from
+    `modes` at `states` (`fields.next_mode`)."""
+    for k in range(len(states)):
+        x = states[k]
+        out[k] = next_mode(modes[k], x[POSITION], x[VELOCITY], goals[k], params)

@@ -1,0 +1,145 @@
+"""A fleet's chain as one system, for a fleet flown by one integrator
+(`flight.fleet`, docs/fleets.md "One integrator").
+
+    plants' states ──▶ FleetChain ──rotor_forces──▶ plants
+    scene sensors ──────▲    └──rows──▶ logger
+
+`FleetChain` evaluates `maths.fleet.fleet_chain`, compiled
+(`maths.compiled`), for every vehicle in one call: the per-call cost of a
+Python system is paid once for the fleet, not once per vehicle and system.
+Eq 21's modes are its discrete state, one a vehicle, updated at the start
+of every integrator step (`fleet_modes`), where the single-vehicle selector
+locates each switch with witness functions (a witness a vehicle would cost
+a Python call a vehicle and step).
+"""
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from mfi_drake.config.parameters import NavigatorParams
+from mfi_drake.config.vehicles import Vehicle
+from mfi_drake.maths import compiled, fields, fleet
+from mfi_drake.maths.fields import MODE_PD
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
+from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
+from mfi_drake.systems.last_result import LastResult
+
+
+class FleetChain(LeafSystem):
+    """Every vehicle's sensor readings of the others, navigator, eq 21
+    selector, attitude PD and mixer (`maths.fleet.fleet_chain`).
+
+    .. pydrake_system::
+
+        name: FleetChain
+        input_ports:
+        - states
+        - scene (optional)
+        output_ports:
+        - rotor_forces
+        - rows
+
+    "states": the N plants' states, stacked (12 N); "scene": each vehicle's
+    sphere-sensor readings of the static scene, stacked (12 N; only with
+    `scene`, else nothing); "rotor_forces": u of every vehicle (4 N); "rows":
+    each vehicle's `maths.fleet.ROW`, what a single-vehicle diagram logs
+    (ROW_SIZE N).
+    """
+
+    def __init__(
+        self,
+        goals,
+        params: NavigatorParams,
+        vehicle: Vehicle,
+        sensor_radius: float,
+        keep_right: float,
+        own_pace: bool,
+        blend_speed: float,
+        scene: bool,
+    ):
+        super().__init__()
+        self._goals = np.array(goals, float)
+        n = len(self._goals)
+        K_P, K_D = attitude_gains(vehicle, params)
+        # Copies of the parameters, in the compiled functions' form.
+        self._constants = (
+            compiled.record(params),
+            compiled.record(vehicle),
+            K_P,
+            K_D,
+            np.linalg.inv(mixer_matrix(vehicle)),
+            vehicle.collision_radius,
+            float(sensor_radius),
+            float(keep_right),
+            bool(own_pace),
+            float(blend_speed),
+        )
+        self._params = self._constants[0]
+        self._functions = compiled.compiled(fleet)
+        self._field = compiled.compiled(fields).obstacle_field
+        self._forces = fleet.row_slices()["propeller_force"]
+        self._states = self.DeclareVectorInputPort("states", STATE_SIZE * n)
+        tickets = {self._states.ticket()}
+        self._scene = None
+        self._no_scene = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
+        if scene:
+            self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE * n)
+            tickets.add(self._scene.ticket())
+        self._modes = self.DeclareDiscreteState(np.full(n, float(MODE_PD)))
+        tickets.add(self.discrete_state_ticket(self._modes))
+        self.DeclareInitializationUnrestrictedUpdateEvent(self._update_modes)
+        self.DeclarePerStepUnrestrictedUpdateEvent(self._update_modes)
+        self._last = LastResult()
+        # Compiled here, on the first call, not within the flight.
+        at_rest = np.zeros(STATE_SIZE * n)
+        self._evaluate(at_rest, self._no_scene, np.full(n, float(MODE_PD)))
+        self._functions.fleet_modes(
+            at_rest.reshape(n, STATE_SIZE),
+            self._goals,
+            np.zeros(n),
+            self._params,
+            np.zeros(n),
+        )
+        self.DeclareVectorOutputPort(
+            "rotor_forces",
+            ROTORS * n,
+            lambda context, out: out.SetFromVector(self._rows(context)[1]),
+            prerequisites_of_calc=tickets,
+        )
+        self.DeclareVectorOutputPort(
+            "rows",
+            fleet.ROW_SIZE * n,
+            lambda context, out: out.SetFromVector(self._rows(context)[0].ravel()),
+            prerequisites_of_calc=tickets,
+        )
+
+    def _update_modes(self, context, state):
+        states = np.array(self._states.Eval(context)).reshape(-1, STATE_SIZE)
+        modes = np.array(context.get_discrete_state(self._modes).value())
+        new = np.empty_like(modes)
+        self._functions.fleet_modes(states, self._goals, modes, self._params, new)
+        state.get_mutable_discrete_state(self._modes).SetFromVector(new)
+
+    def _rows(self, context) -> tuple[np.ndarray, np.ndarray]:
+        """(rows (N, ROW_SIZE), the rotor forces (4 N)), computed once for
+        both outputs."""
+        # Copies: Drake's read-only views would be another type to compile.
+        states = np.array(self._states.Eval(context))
+        scene = self._no_scene if self._scene is None else self._scene.Eval(context)
+        modes = np.array(context.get_discrete_state(self._modes).value())
+        key = states.tobytes() + np.asarray(scene).tobytes() + modes.tobytes()
+        return self._last(key, self._evaluate, states, scene, modes)
+
+    def _evaluate(self, states, scene, modes):
+        n = len(self._goals)
+        rows = np.empty((n, fleet.ROW_SIZE))
+        self._functions.fleet_chain(
+            self._field,
+            states.reshape(n, STATE_SIZE),
+            np.array(scene).reshape(n, OBSTACLE_SIGNAL_SIZE),
+            modes,
+            self._goals,
+            *self._constants,
+            rows,
+        )
+        return rows, rows[:, self._forces].ravel()
