@@ -10,12 +10,12 @@ radius `circle_radius(N)`, duration 5 s per metre of diameter) is flown by
 MFI by both designs (docs/fleets.md): separate integration with the
 default exchange rate over P processes (default: one per core), and one
 integrator (one process); and one vehicle flies the same diameter alone
-(the reference, in the same run). Printed: vehicle-seconds per second of
-CPU time (every process's) and of wall time, and the fleet's over the
-reference's: the CPU ratio is the work a vehicle-second costs, the wall
-ratio what the machine delivers (on a shared machine the CPU ratio is the
-steadier). The one integrator's build time (its chain compiled, outside
-the flight) is printed apart.
+(the reference, in the same run: the median of three flights). Printed:
+vehicle-seconds per second of CPU time (every process's) and of wall time,
+and the fleet's over the reference's: the CPU ratio is the work a
+vehicle-second costs, the wall ratio what the machine delivers (on a
+shared machine the CPU ratio is the steadier). The one integrator's build
+time (its chain compiled, outside the flight) is printed apart.
 
 Rates: the shipped swarms and three random fields of four vehicles (the
 multi-vehicle sweep's, seed 0) flown at each exchange rate, and on one
@@ -78,8 +78,10 @@ def scaling(sizes: list[int], processes: int, lines: list[str]) -> list[dict]:
     rows = []
     for n in sizes:
         fleet = antipodal_circle(n)
-        reference = simulate(alone(fleet))
-        cpu_ref, wall_ref = speeds(reference)
+        # The median of three: a lone flight is short, and its rate moved by
+        # tens of per cent from one flight to the next on a shared machine.
+        references = [speeds(simulate(alone(fleet))) for _ in range(3)]
+        cpu_ref, wall_ref = np.median(references, axis=0)
         for design in DESIGNS if n > 1 else DESIGNS[:1]:
             start = time.perf_counter()
             flown = simulate(

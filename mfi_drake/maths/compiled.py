@@ -104,6 +104,18 @@ def compiled(module: types.ModuleType) -> types.SimpleNamespace:
     return types.SimpleNamespace(**namespaces[module.__name__])
 
 
+def specialised(function, *arguments):
+    """Calls `function` (a `compiled` one) with `arguments`, compiling it for
+    their types, and returns its compiled entry for exactly those types.
+    Calling the entry skips numba's typing of every argument at every call:
+    with a named tuple of parameters that was 40 µs of a 50 µs call. The
+    caller must pass arguments of the same types (C-contiguous, writable
+    arrays of the same dimensions, records of the same fields)."""
+    function(*arguments)
+    kinds = tuple(function.typeof_pyval(a) for a in arguments)
+    return function.overloads[kinds].entry_point
+
+
 def _cacheable(function: types.FunctionType) -> bool:
     """Whether numba may keep `function`'s machine code on disk for the next
     process: not where it is given another compiled function (an obstacle

@@ -65,18 +65,12 @@ def fleet_chain(
     parameters and the vehicle (`compiled.record` for the compiled form);
     K_P, K_D: eq 25's gains; D_inv: eq 8 inverted; keep_right, own_pace,
     blend_speed: the relative field's (`relative_field`)."""
-    n = len(states)
-    others, moving = np.zeros((n - 1, 3)), np.zeros((n - 1, 3))
-    for k in range(n):
+    centres, velocities = states[:, POSITION], states[:, VELOCITY]
+    for k in range(len(states)):
         x = states[k]
         p, v = x[POSITION], x[VELOCITY]
-        j = 0
-        for i in range(n):
-            if i != k:
-                others[j], moving[j] = states[i][POSITION], states[i][VELOCITY]
-                j += 1
         obstacle, u, flags = vehicle_readings(
-            p, scene[k], others, moving, radius, reach
+            p, scene[k], centres, velocities, radius, reach, k
         )
         F_o, terms = relative_field(
             field,
@@ -95,21 +89,20 @@ def fleet_chain(
         F_n = F_o + F_gc + F_v + F_pd
         thrust_torque, setpoint = attitude_command(x, F_n, vehicle, params, K_P, K_D)
         u_rotor, saturated = mix(thrust_torque, D_inv, vehicle.u_max)
-        rows[k] = np.concatenate(
-            (
-                x,
-                obstacle,
-                terms,
-                F_gc,
-                F_v,
-                F_pd,
-                F_n,
-                np.array([float(modes[k])]),
-                setpoint,
-                u_rotor,
-                np.array([float(saturated)]),
-            )
-        )
+        # The row in ROW's order.
+        row, at = rows[k], 0
+        for part in (x, obstacle, terms, F_gc, F_v, F_pd, F_n):
+            at = _put(row, at, part)
+        row[at] = mode
+        at = _put(row, at + 1, setpoint)
+        at = _put(row, at, u_rotor)
+        row[at] = saturated
+
+
+def _put(row: np.ndarray, at: int, part: np.ndarray) -> int:
+    """Writes `part` into `row` from `at`; where the next part goes."""
+    row[at : at + len(part)] = part
+    return at + len(part)
 
 
 def fleet_modes(

@@ -193,13 +193,15 @@ def vehicle_readings(
     velocities: np.ndarray,
     radius: float,
     reach: float,
+    itself: int = -1,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A sphere sensor's readings at p with other vehicles added: the
     OBSTACLE_COUNT nearest of the scene's readings `scene` and of the
     spheres of radius `radius` at `centres` (m, 3) within `reach` of the
     sphere around p (a sphere's closest point, as SceneGraph gives it: r_o =
     (|d| − ρ) d/|d|, d from p to the centre), nearest first (ties: the
-    scene's first, then the vehicles in order). Returns (the readings, per
+    scene's first, then the vehicles in order); `centres[itself]` is the
+    vehicle's own (−1: none there). Returns (the readings, per
     reading its vehicle's velocity along the reading's normal
     (`along_normal`, 3 each; zero for the scene's), per reading 1 where it
     is a vehicle, else 0)."""
@@ -217,13 +219,14 @@ def vehicle_readings(
     statics = found
     limit = (reach + radius) ** 2
     for k in range(m):
-        d = centres[k] - p
-        if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > limit:
+        d0, d1, d2 = centres[k, 0] - p[0], centres[k, 1] - p[1], centres[k, 2] - p[2]
+        if k == itself or d0 * d0 + d1 * d1 + d2 * d2 > limit:
             continue
-        length = _length(d[0], d[1], d[2])
+        length = _length(d0, d1, d2)
         gaps[found] = length - radius
         if length > 0.0:
-            points[found] = d * (gaps[found] / length)
+            scale = gaps[found] / length
+            points[found] = (d0 * scale, d1 * scale, d2 * scale)
         moving[found] = k
         found += 1
     u, vehicle = np.zeros(3 * OBSTACLE_COUNT), np.zeros(OBSTACLE_COUNT)

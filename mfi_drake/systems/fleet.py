@@ -75,13 +75,34 @@ class FleetChain(LeafSystem):
             float(blend_speed),
         )
         self._params = self._constants[0]
-        self._functions = compiled.compiled(fleet)
-        self._field = compiled.compiled(fields).obstacle_field
         self._forces = fleet.row_slices()["propeller_force"]
+        # Compiled here, not within the flight: each function's entry for
+        # the types every later call passes (`compiled.specialised`).
+        functions = compiled.compiled(fleet)
+        self._field = compiled.compiled(fields).obstacle_field
+        at_rest = np.zeros((n, STATE_SIZE))
+        self._no_scene = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
+        self._chain = compiled.specialised(
+            functions.fleet_chain,
+            self._field,
+            at_rest,
+            self._no_scene,
+            np.zeros(n),
+            self._goals,
+            *self._constants,
+            np.zeros((n, fleet.ROW_SIZE)),
+        )
+        self._next_modes = compiled.specialised(
+            functions.fleet_modes,
+            at_rest,
+            self._goals,
+            np.zeros(n),
+            self._params,
+            np.zeros(n),
+        )
         self._states = self.DeclareVectorInputPort("states", STATE_SIZE * n)
         tickets = {self._states.ticket()}
         self._scene = None
-        self._no_scene = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
         if scene:
             self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE * n)
             tickets.add(self._scene.ticket())
@@ -90,16 +111,6 @@ class FleetChain(LeafSystem):
         self.DeclareInitializationUnrestrictedUpdateEvent(self._update_modes)
         self.DeclarePerStepUnrestrictedUpdateEvent(self._update_modes)
         self._last = LastResult()
-        # Compiled here, on the first call, not within the flight.
-        at_rest = np.zeros(STATE_SIZE * n)
-        self._evaluate(at_rest, self._no_scene, np.full(n, float(MODE_PD)))
-        self._functions.fleet_modes(
-            at_rest.reshape(n, STATE_SIZE),
-            self._goals,
-            np.zeros(n),
-            self._params,
-            np.zeros(n),
-        )
         self.DeclareVectorOutputPort(
             "rotor_forces",
             ROTORS * n,
@@ -117,13 +128,13 @@ class FleetChain(LeafSystem):
         states = np.array(self._states.Eval(context)).reshape(-1, STATE_SIZE)
         modes = np.array(context.get_discrete_state(self._modes).value())
         new = np.empty_like(modes)
-        self._functions.fleet_modes(states, self._goals, modes, self._params, new)
+        self._next_modes(states, self._goals, modes, self._params, new)
         state.get_mutable_discrete_state(self._modes).SetFromVector(new)
 
     def _rows(self, context) -> tuple[np.ndarray, np.ndarray]:
         """(rows (N, ROW_SIZE), the rotor forces (4 N)), computed once for
         both outputs."""
-        # Copies: Drake's read-only views would be another type to compile.
+        # Copies: the compiled entries take writable C-contiguous arrays.
         states = np.array(self._states.Eval(context))
         scene = self._no_scene if self._scene is None else self._scene.Eval(context)
         modes = np.array(context.get_discrete_state(self._modes).value())
@@ -133,7 +144,7 @@ class FleetChain(LeafSystem):
     def _evaluate(self, states, scene, modes):
         n = len(self._goals)
         rows = np.empty((n, fleet.ROW_SIZE))
-        self._functions.fleet_chain(
+        self._chain(
             self._field,
             states.reshape(n, STATE_SIZE),
             np.array(scene).reshape(n, OBSTACLE_SIGNAL_SIZE),
