@@ -46,7 +46,7 @@ PAGES = [
     "docs/goals.md",
 ]
 RESULTS = "docs/results"
-FLEETS = ("fleet_4", "fleet_8", "fleet_8_methods")  # the multi-vehicle sweeps
+FLEETS = ("fleet_4", "fleet_8", "fleet_16_one", "fleet_8_methods")  # the fleet sweeps
 DENSITIES = ("0.05", "0.1", "0.2")
 # Row labels of the methods, as the tables name them.
 LABELS = {

@@ -540,6 +540,12 @@ def fly_fleet(
             group.close()
     for flight in flights:
         flight.cpu_time = cpu_time
+    return fleet_flight(flights)
+
+
+def fleet_flight(flights: list[Flight]) -> Flight:
+    """The first vehicle's Flight with the others in `others`, every one
+    with its metrics (the first's over the fleet)."""
     for other in flights[1:]:
         other.metrics = flight_metrics(other)
     result = flights[0]
@@ -627,12 +633,7 @@ def fly_one_integrator(
         )
         for k, flown in enumerate(fleet_diagram.flown)
     ]
-    for other in flights[1:]:
-        other.metrics = flight_metrics(other)
-    result = flights[0]
-    result.others = flights[1:]
-    result.metrics = flight_metrics(result)
-    return result
+    return fleet_flight(flights)
 
 
 def logged(

@@ -164,9 +164,11 @@ class RelativeNavigator(LeafSystem):
         - obstacle_force_terms
 
     `navigator`: an `ObstacleNavigator` of its own (not in a diagram), whose
-    `terms_of` it evaluates; its force must be the sum of its readings'.
-    One system rather than a navigator per reading and adders: the same sums
-    in the same order, with a fifth of the ports to evaluate.
+    field, goal, collision radius and parameters it evaluates
+    (`maths.motion.relative_field`, which a fleet on one integrator
+    evaluates too); its force must be the sum of its readings'. One system
+    rather than a navigator per reading and adders: the same sums in the
+    same order, with a fifth of the ports to evaluate.
 
     `keep_right` > 0 (degrees) adds the input "vehicle_readings" (1 where a
     reading is another vehicle, `OtherVehicleReadings`) and the rule of the
