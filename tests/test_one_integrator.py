@@ -226,3 +226,18 @@ def test_an_unknown_fleet_integration_is_refused_by_name(capsys):
     path = f"{SCENARIOS}/swarm_corridor.yaml"
     assert main(["run", path, "--set", "fleet_integration: fast"]) == 2
     assert "fleet_integration = 'fast': must be one of" in capsys.readouterr().err
+
+
+def test_a_fleet_on_one_integrator_ends_once_every_vehicle_has_settled():
+    scene = one(load_scenario(f"{SCENARIOS}/swarm_corridor.yaml"))
+    whole, settled = simulate(scene).metrics, simulate(scene, until_settled=True)
+    m = settled.metrics
+    assert m["outcome"] == whole["outcome"] == "success"
+    assert m["sim_time"] < scene.duration - 5.0
+    # The rest of the whole flight is the hover: the same convergence, and
+    # the final errors within the integrator's accuracy.
+    assert (
+        m["vehicles"][1]["convergence_time"] == whole["vehicles"][1]["convergence_time"]
+    )
+    for v in m["vehicles"]:
+        assert v["final_error"] <= scene.simulator.accuracy

@@ -90,7 +90,9 @@ def simulate(
     `method`: "mfi", "apf", "gf" (`methods.METHODS`), a user's navigation
     field as "MODULE:NAME" or as the function itself (see `methods`).
     `until_settled`, `stop_at_contact`: see `fly`. With `other_vehicles`,
-    every vehicle is flown (`fly_fleet`), over `processes` processes."""
+    every vehicle is flown (`fly_fleet`), over `processes` processes; with
+    `fleet_integration: one`, on one integrator in this process
+    (`fly_one_integrator`)."""
     if scenario.other_vehicles and scenario.fleet_integration == "one":
         return fly_one_integrator(scenario, method, until_settled, stop_at_contact)
     if scenario.other_vehicles:

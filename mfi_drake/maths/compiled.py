@@ -71,10 +71,17 @@ FLOAT_FORMS = {
 }
 
 
-@functools.cache
 def compiled(module: types.ModuleType) -> types.SimpleNamespace:
-    """`module`'s functions compiled (one of `MODULES`), by name. Numba is
+    """`module`'s functions compiled (one of `MODULES`), by name: one set of
+    clones for every module, so that `compiled(fields).obstacle_field` is
+    the function `compiled(fleet)`'s callers compile against. Numba is
     imported here only: nothing else in the package needs it."""
+    return types.SimpleNamespace(**_namespaces()[module.__name__])
+
+
+@functools.cache
+def _namespaces() -> dict[str, dict]:
+    """Every module's namespace of compiled clones, by module name."""
     import numba
 
     namespaces = {m.__name__: dict(vars(m)) for m in MODULES}
@@ -101,7 +108,7 @@ def compiled(module: types.ModuleType) -> types.SimpleNamespace:
                 namespace[name] = swapped[name]
             elif id(obj) in clones:
                 namespace[name] = clones[id(obj)]
-    return types.SimpleNamespace(**namespaces[module.__name__])
+    return namespaces
 
 
 def specialised(function, *arguments):
