@@ -35,7 +35,7 @@ from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Cameras, Scenario, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES, Vehicle
 from mfi_drake.flight.methods import Method, resolve_method
-from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE, slices
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.camera import add_depth_cameras
 from mfi_drake.systems.control import AttitudePD, RotorMixer
@@ -81,11 +81,7 @@ class FlightDiagram:
     sensor: object  # the system whose "obstacle" port the navigator reads
 
     def log_slices(self) -> dict[str, slice]:
-        slices, start = {}, 0
-        for name, size, _, _ in LOG_LAYOUT:
-            slices[name] = slice(start, start + size)
-            start += size
-        return slices
+        return slices((name, size) for name, size, _, _ in LOG_LAYOUT)
 
 
 def make_plant(vehicle: Vehicle) -> QuadrotorPlant:

@@ -244,6 +244,12 @@ class RestClock:
         return at_rest and t - self._since >= SETTLE_HOLD
 
 
+def centre_gap(positions: np.ndarray) -> float:
+    """The least distance between two of the centres `positions` (n ≥ 2, 3)."""
+    gaps = np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=2)
+    return float(gaps[np.triu_indices(len(positions), 1)].min())
+
+
 def in_contact(reading: np.ndarray, radius: float) -> bool:
     """Whether a sphere sensor's `reading` is closer than `radius` (less
     CONTACT_MARGIN) to the vehicle centre."""
@@ -521,9 +527,7 @@ def fly_fleet(
             t_next = min(k / scenario.exchange_hz, scenario.duration)
             ended, at_rest = exchange(t, t_next)
             t = t_next
-            p = states[:, POSITION]
-            gaps = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=2)
-            touching = bool((gaps[np.triu_indices(count, 1)] < 2.0 * radius).any())
+            touching = centre_gap(states[:, POSITION]) < 2.0 * radius
             if ended or (touching and stop_at_contact) or at_rest:
                 break
         wall_time = time.perf_counter() - start
@@ -567,7 +571,6 @@ def one_integrator_monitor(
     radius = fleet.vehicle.collision_radius
     n = len(fleet.flown)
     clock = RestClock([s.goal for s in fleet.flown], fleet.scenario.simulator.accuracy)
-    pairs = np.triu_indices(n, 1)
 
     def monitor(context) -> EventStatus:
         states = fleet.states.get_output_port(0).Eval(
@@ -575,9 +578,7 @@ def one_integrator_monitor(
         )
         x = states.reshape(n, STATE_SIZE)
         if stop_at_contact:
-            p = x[:, POSITION]
-            gaps = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=2)[pairs]
-            if (gaps < 2.0 * radius - CONTACT_MARGIN).any():
+            if centre_gap(x[:, POSITION]) < 2.0 * radius - CONTACT_MARGIN:
                 return EventStatus.ReachedTermination(fleet.chain, "vehicles touch")
             for sensor in fleet.sensors:
                 port = sensor.get_output_port(0)

@@ -15,7 +15,7 @@ run. A few helpers are swapped for their float forms:
   (the two differ in the last bit);
 - `fields._paper_attraction`, eq 16–18 by rotation matrices (numba's matrix
   product needs SciPy's BLAS), raises: a fleet whose parameters turn that
-  way is refused before it flies (`flight.fleet.one_integrator_support`).
+  way is refused before it flies (`flight.fleet.unsupported`).
 
 Parameters travel as named tuples of a dataclass's fields (`record`): numba
 reads a named tuple's attributes as Python reads the dataclass's.

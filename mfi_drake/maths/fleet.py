@@ -9,7 +9,7 @@ functions the single-vehicle systems call, in the order they call them
 import numpy as np
 
 from mfi_drake.maths.fields import goal_terms, next_mode
-from mfi_drake.maths.layout import POSITION, VELOCITY
+from mfi_drake.maths.layout import POSITION, VELOCITY, slices
 from mfi_drake.maths.motion import relative_field, vehicle_readings
 from mfi_drake.maths.quadcopter import attitude_command, mix
 
@@ -31,11 +31,7 @@ ROW_SIZE = sum(size for _, size in ROW)
 
 def row_slices() -> dict[str, slice]:
     """Where each entry of ROW lies in a row."""
-    slices, start = {}, 0
-    for name, size in ROW:
-        slices[name] = slice(start, start + size)
-        start += size
-    return slices
+    return slices(ROW)
 
 
 def fleet_chain(
@@ -67,7 +63,7 @@ def fleet_chain(
     blend_speed: the relative field's (`relative_field`)."""
     centres, velocities = states[:, POSITION], states[:, VELOCITY]
     for k in range(len(states)):
-        x = states[k]
+        x, mode, goal = states[k], modes[k], goals[k]
         p, v = x[POSITION], x[VELOCITY]
         obstacle, u, flags = vehicle_readings(
             p, scene[k], centres, velocities, radius, reach, k
@@ -78,13 +74,12 @@ def fleet_chain(
             obstacle,
             u,
             keep_right * flags,
-            goals[k],
+            goal,
             radius,
             params,
             own_pace,
             blend_speed,
         )
-        mode, goal = modes[k], goals[k]
         F_gc, F_v, F_pd = goal_terms(mode, p, v, goal, params, F_o, vehicle.mass)
         F_n = F_o + F_gc + F_v + F_pd
         thrust_torque, setpoint = attitude_command(x, F_n, vehicle, params, K_P, K_D)

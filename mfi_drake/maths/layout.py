@@ -24,6 +24,16 @@ READING_SIZE = 4  # [r_o (3), seen]
 OBSTACLE_SIGNAL_SIZE = READING_SIZE * OBSTACLE_COUNT
 
 
+def slices(parts) -> dict[str, slice]:
+    """Where each of `parts`, (name, size) pairs laid end to end, lies in
+    their concatenation."""
+    out, start = {}, 0
+    for name, size in parts:
+        out[name] = slice(start, start + size)
+        start += size
+    return out
+
+
 def position_velocity(x):
     """(p, v) of a state vector."""
     return x[POSITION], x[VELOCITY]

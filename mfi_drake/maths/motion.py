@@ -162,6 +162,8 @@ def relative_field(
         w = v - u[3 * i : 3 * i + 3]
         if turns[i]:
             w = turned_right(w, turns[i])
+        # `layout.obstacle_signal` of this reading alone, written out: its
+        # list of points cost the compiled fleet chain ~10 %.
         alone = np.zeros(OBSTACLE_SIGNAL_SIZE)
         alone[0:3] = obstacle[READING_SIZE * i : READING_SIZE * i + 3]
         alone[3] = 1.0
