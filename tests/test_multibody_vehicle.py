@@ -226,8 +226,8 @@ def test_shipped_model_is_the_vehicle_record(vehicle):
     """The file is what `vehicle_sdf` writes from the record (else run
     `python -m mfi_drake.config.vehicle_model`), and Drake's parser reads
     from it the record's mass, principal inertia at the body origin, one
-    collision sphere of the collision radius and rotor discs at the arm
-    length on ±x, ±y."""
+    collision sphere of the collision radius, no geometry a camera sees and
+    rotor discs at the arm length on ±x, ±y."""
     v = VEHICLES[vehicle]
     with open(vehicle_model_path(vehicle)) as f:
         assert f.read() == vehicle_sdf(v)
@@ -250,6 +250,7 @@ def test_shipped_model_is_the_vehicle_record(vehicle):
     (collision,) = inspector.GetGeometries(frame, Role.kProximity)
     shape = inspector.GetShape(collision)
     assert isinstance(shape, Sphere) and shape.radius() == v.collision_radius
+    assert not inspector.GetGeometries(frame, Role.kPerception)  # cameras see none
     rotors = {
         inspector.GetName(g).split("::")[-1]: inspector.GetPoseInFrame(g).translation()
         for g in inspector.GetGeometries(frame, Role.kIllustration)
@@ -275,3 +276,17 @@ def test_two_vehicles_coexist_and_unknown_names_fail():
         vehicle_model_path("zeppelin")
     with pytest.raises(ValueError, match="vehicle = 'zeppelin'"):
         add_vehicle_model(plant, "zeppelin")
+
+
+def test_add_propellers_refuses_a_second_vehicle_and_an_unknown_name():
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(MultibodyPlant(time_step=0.0))
+    first = add_vehicle_model(plant, "drake_default", model_name="first")
+    second = add_vehicle_model(plant, "pelican", model_name="second")
+    plant.Finalize()
+    with pytest.raises(ValueError, match="vehicle = 'zeppelin'"):
+        add_propellers(builder, plant, first, "zeppelin")
+    propeller = add_propellers(builder, plant, first, VEHICLES["drake_default"])
+    assert propeller.num_propellers() == 4
+    with pytest.raises(ValueError, match="plant: its applied_spatial_force input"):
+        add_propellers(builder, plant, second, "pelican")

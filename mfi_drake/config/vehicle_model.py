@@ -1,8 +1,10 @@
 """The shipped SDFormat model of each vehicle, written from its `Vehicle`
 record (the one source of truth): one free body "body" at the centre of
-mass with the record's mass and principal inertia, visuals of a hub box,
-four arms and four rotor discs, and one collision sphere of the
-`collision_radius` that the navigator grows obstacles by.
+mass with the record's mass and principal inertia; visuals of a hub box,
+four arms and four rotor discs, drawn only (no perception role: a camera
+on the vehicle does not see them, as with `systems.sensors.VehicleGeometry`);
+and one collision sphere of the `collision_radius` that the navigator
+grows obstacles by.
 
 Rotors follow Drake's QuadrotorPlant: rotor k sits at arm_length along the
 body's +x, +y, −x, −y axes (k = 0..3), pushes along +z, and rotors 0 and 2
@@ -91,13 +93,14 @@ def vehicle_sdf(vehicle: Vehicle) -> str:
         <pose>{_numbers(part.xyz)} 0.0 0.0 {float(part.yaw)!r}</pose>
         <geometry>{_geometry(part)}</geometry>
         <material><diffuse>{_numbers(VEHICLE_RGBA)}</diffuse></material>
+        <drake:perception_properties enabled="false"/>
       </visual>"""
         for part in vehicle_parts(vehicle.arm_length, vehicle.rotor_radius)
     )
     return f"""<?xml version="1.0"?>
 <!-- Written by mfi_drake.config.vehicle_model from the record "{vehicle.name}"
      of mfi_drake/config/vehicles.py; edit the record, not this file. -->
-<sdf version="1.9">
+<sdf version="1.9" xmlns:drake="http://drake.mit.edu">
   <model name="{vehicle.name}">
     <link name="body">
       <inertial>
