@@ -23,6 +23,7 @@ from mfi_drake.systems.multibody import (
     MultibodyVehicleState,
     add_propellers,
     add_vehicle_model,
+    add_vehicle_state,
     place_vehicle,
     pose_and_velocity,
     set_vehicle_state,
@@ -41,14 +42,7 @@ def multibody_diagram(vehicle: str, command_source=None):
     body = add_vehicle_model(plant, vehicle)
     plant.Finalize()
     propeller = add_propellers(builder, plant, body, vehicle)
-    state = builder.AddSystem(MultibodyVehicleState(body.index()))
-    builder.Connect(
-        plant.get_body_poses_output_port(), state.GetInputPort("body_poses")
-    )
-    builder.Connect(
-        plant.get_body_spatial_velocities_output_port(),
-        state.GetInputPort("body_spatial_velocities"),
-    )
+    state = add_vehicle_state(builder, plant, body)
     if command_source is not None:
         builder.Connect(command_source(builder), propeller.get_command_input_port())
     return builder.Build(), plant, body, state, propeller

@@ -79,7 +79,7 @@ class MultibodyVehicleState(LeafSystem):
         - state
 
     Connect the inputs from the plant's `get_body_poses_output_port()` and
-    `get_body_spatial_velocities_output_port()`.
+    `get_body_spatial_velocities_output_port()` (`add_vehicle_state` does).
     """
 
     def __init__(self, body_index: BodyIndex):
@@ -102,6 +102,25 @@ class MultibodyVehicleState(LeafSystem):
         X_WB = self._poses.Eval(context)[self._index]
         V_WB = self._velocities.Eval(context)[self._index]
         output.SetFromVector(vehicle_state(X_WB, V_WB))
+
+
+def add_vehicle_state(
+    builder: DiagramBuilder, plant: MultibodyPlant, body: RigidBody
+) -> MultibodyVehicleState:
+    """Adds `body`'s `MultibodyVehicleState`, named "state_" + its model
+    instance's name, fed by the finalized `plant` in `builder`."""
+    state = builder.AddNamedSystem(
+        f"state_{plant.GetModelInstanceName(body.model_instance())}",
+        MultibodyVehicleState(body.index()),
+    )
+    builder.Connect(
+        plant.get_body_poses_output_port(), state.GetInputPort("body_poses")
+    )
+    builder.Connect(
+        plant.get_body_spatial_velocities_output_port(),
+        state.GetInputPort("body_spatial_velocities"),
+    )
+    return state
 
 
 def add_propellers(
