@@ -12,6 +12,13 @@ QuadrotorPlant's input "propeller_force" does; gravity is the plant's own
 (9.81 m/s² by default, QuadrotorPlant's g). The body frame is the centre
 of mass, so the plant's body pose is QuadrotorPlant's (x, y, z, rpy).
 
+Keep the plant continuous (time_step = 0) to fly it as QuadrotorPlant is
+flown, by the simulator's error-controlled integrator (tests: 4e-8 apart
+after 2 s at RK3 accuracy 1e-8). Unlike QuadrotorPlant, the body has a
+collision sphere: a plant that also holds the world's geometry applies
+contact forces when the vehicle touches it, and a sensor must not take the
+sphere (on `plant.GetBodyFrameIdOrThrow(body.index())`) for an obstacle.
+
 `MultibodyVehicleState` writes the 12-state of QuadrotorPlant's output
 "state": position, roll-pitch-yaw, velocity and the rpy *rates* (not the
 body's angular velocity). Its yaw is read from the rotation, so it lies in
