@@ -6,6 +6,7 @@ u_i is the squared rotor speed ω_i² [(rad/s)²], so kF is RotorS' motor
 constant and kM = kF · moment constant.
 """
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,3 +74,13 @@ VEHICLES: dict[str, Vehicle] = {
         rotor_radius=0.127,
     ),
 }
+
+
+MODELS_DIR = os.path.join(os.path.dirname(os.path.dirname(__file__)), "models")
+
+
+def vehicle_model_path(name: str) -> str:
+    """The shipped SDFormat model of vehicle `name` (`config.vehicle_model`)."""
+    if name not in VEHICLES:
+        raise ValueError(f"vehicle = {name!r}: must be one of {sorted(VEHICLES)}")
+    return os.path.join(MODELS_DIR, f"{name}.sdf")
