@@ -143,13 +143,13 @@ class NavigationStep:
         has been crossed since the last call. `t` [s]: the time a user's
         field's errors name (default 0)."""
         x = _finite(state, (STATE_SIZE,), "state", "QuadrotorPlant's 12-vector")
-        points = _finite(points, None, "points", "k × 3 obstacle points [m]")
-        if points.size == 0:
-            points = points.reshape(0, 3)
-        elif points.ndim != 2 or points.shape[1] != 3:
+        array = _finite(points, None, "points", "k × 3 obstacle points [m]")
+        if array.size == 0:
+            array = array.reshape(0, 3)
+        elif array.ndim != 2 or array.shape[1] != 3:
             _refuse("points", points, "must be k × 3 obstacle points [m]")
         p, _ = position_velocity(x)
-        obstacle = point_readings(p, points, self.sensor_radius)
+        obstacle = point_readings(p, array, self.sensor_radius)
         navigator, selector, attitude, mixer = self._contexts
         if t is not None:
             navigator.SetTime(float(t))
