@@ -94,7 +94,11 @@ class NavigationStep:
         cls, scenario: Scenario, method: "str | Callable | Method" = "mfi"
     ) -> "NavigationStep":
         """The chain that `simulate(scenario, method)` flies, for the
-        scenario's goal, vehicle, parameters and sphere sensor's radius."""
+        scenario's goal, vehicle, parameters and sphere sensor's radius. In
+        a dynamic scene the diagram's navigator also reads the obstacles'
+        velocities (`systems.relative`), and a `faults:` block sits around
+        the chain: the step has neither, it reads points and the state
+        estimate it is given."""
         step = cls.__new__(cls)
         step._build(scenario, method)
         return step
@@ -102,7 +106,10 @@ class NavigationStep:
     def _build(self, scenario: Scenario, method) -> None:
         check_scenario(scenario, scenario.name)
         if not isinstance(scenario.sensor, SphereSensor):
-            raise ValueError(f"{WHERE}: sensor = {scenario.sensor!r}: needs a radius")
+            raise ValueError(
+                f"{WHERE}: sensor = {type(scenario.sensor).__name__}: must be a "
+                "SphereSensor (the step reads the points within its radius)"
+            )
         self.method = resolve_method(method)
         self.scenario = scenario
         self.goal = np.array(scenario.goal, float)
@@ -115,6 +122,15 @@ class NavigationStep:
             RotorMixer(vehicle),
         ]
         self._contexts = [system.CreateDefaultContext() for system in self._chain]
+        # Each input fixed once; a call writes into the fixed values (half
+        # the cost of fixing them anew).
+        self._inputs = [
+            {
+                port.get_name(): port.FixValue(context, np.zeros(port.size()))
+                for port in map(system.get_input_port, range(system.num_input_ports()))
+            }
+            for system, context in zip(self._chain, self._contexts, strict=True)
+        ]
         self._selector = self._chain[1]
         # Only the MFI selector holds eq 21's mode as state; the baselines'
         # and a user field's goal attractions stay in PD.
@@ -151,8 +167,7 @@ class NavigationStep:
         p, _ = position_velocity(x)
         obstacle = point_readings(p, array, self.sensor_radius)
         navigator, selector, attitude, mixer = self._contexts
-        if t is not None:
-            navigator.SetTime(float(t))
+        navigator.SetTime(0.0 if t is None else float(t))
         if self._switches:
             self._switch_mode(x)
         F_o = self._evaluate(0, {"state": x, "obstacle": obstacle}, "obstacle_force")
@@ -178,10 +193,10 @@ class NavigationStep:
 
     def _evaluate(self, k: int, inputs: dict, output: str) -> np.ndarray:
         """System k's `output` with its inputs fixed to `inputs`."""
-        system, context = self._chain[k], self._contexts[k]
+        fixed = self._inputs[k]
         for name, value in inputs.items():
-            system.GetInputPort(name).FixValue(context, value)
-        return system.GetOutputPort(output).Eval(context).copy()
+            fixed[name].GetMutableData().get_mutable_value().SetFromVector(value)
+        return self._chain[k].GetOutputPort(output).Eval(self._contexts[k]).copy()
 
 
 def _navigator(navigator: "NavigatorParams | dict | None") -> NavigatorParams:
