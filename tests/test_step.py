@@ -98,7 +98,8 @@ def test_the_step_equals_the_logged_diagram_at_the_logged_inputs(scene, method):
 def test_points_are_read_as_the_sphere_sensor_reads_scene_graph():
     # Oracle: SceneGraph's sphere sensor reading of random spheres, against
     # the readings of their closest points (more spheres than readings,
-    # some out of range).
+    # some out of range), seen from outside them all (points cannot say
+    # that the vehicle's centre is inside an obstacle).
     rng = np.random.default_rng(0)
     scene_graph = SceneGraph()
     source = scene_graph.RegisterSource("spheres")
@@ -108,12 +109,17 @@ def test_points_are_read_as_the_sphere_sensor_reads_scene_graph():
         sensed(instance, Rgba(1, 1, 1, 1), RenderLabel(i + 1))
         scene_graph.RegisterAnchoredGeometry(source, instance)
     query = scene_graph.get_query_output_port().Eval(scene_graph.CreateDefaultContext())
-    for p in rng.uniform(-3, 3, (20, 3)):
+    seen = 0
+    for p in rng.uniform(-3, 3, (40, 3)):
         away = p - centres
         gaps = np.linalg.norm(away, axis=1)
+        if np.any(gaps <= radii):
+            continue
+        seen += 1
         points = centres + radii[:, None] * away / gaps[:, None]
         expected = nearest_obstacles(query, p, 2.5)
         np.testing.assert_allclose(point_readings(p, points, 2.5), expected, 0, 1e-12)
+    assert seen >= 20
 
 
 def test_the_nearest_three_within_the_radius_are_read_nearest_first():

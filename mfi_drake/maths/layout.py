@@ -49,7 +49,8 @@ def point_readings(p: np.ndarray, points: np.ndarray, radius: float) -> np.ndarr
     """The "obstacle" signal at p of the obstacles whose closest points are
     `points` (k, 3, world frame), as the sphere sensor reads them: those
     within `radius` of p (inclusive, as SceneGraph's threshold), nearest
-    first."""
+    first. (SceneGraph ranks by signed distance: the same order unless p is
+    inside an obstacle, which points cannot tell.)"""
     r_o = points - p
     distances = np.sqrt(np.sum(r_o * r_o, axis=1))
     within = distances <= radius
