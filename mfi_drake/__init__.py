@@ -7,7 +7,9 @@ else):
 - `load_scenario(path, overrides=())`: a validated `Scenario`;
 - `simulate(scenario, method="mfi")`: a `Flight` with its `metrics`;
   `method` is a name of `METHODS`, "MODULE:NAME" of a user's field, or the
-  field function itself.
+  field function itself;
+- `NavigationStep(goal, method="mfi", ...)`: the navigation chain one
+  call at a time, `step(state, points) -> StepOutput`, for a flight stack.
 
 The layers, imports only downward (tests/test_layers.py): maths → config →
 world → systems → flight → studies → app.
@@ -22,6 +24,8 @@ _API = {
     "simulate": "mfi_drake.flight.simulation",
     "Flight": "mfi_drake.flight.simulation",
     "METHODS": "mfi_drake.flight.methods",
+    "NavigationStep": "mfi_drake.flight.step",
+    "StepOutput": "mfi_drake.flight.step",
 }
 
 __all__ = sorted(_API)

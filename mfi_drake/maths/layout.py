@@ -39,6 +39,24 @@ def position_velocity(x):
     return x[POSITION], x[VELOCITY]
 
 
+def nearest_first(distances: np.ndarray) -> np.ndarray:
+    """The indices of the OBSTACLE_COUNT least `distances`, least first, a
+    tie in the given order: how a sensor ranks the obstacles it reads."""
+    return np.argsort(distances, kind="mergesort")[:OBSTACLE_COUNT]
+
+
+def point_readings(p: np.ndarray, points: np.ndarray, radius: float) -> np.ndarray:
+    """The "obstacle" signal at p of the obstacles whose closest points are
+    `points` (k, 3, world frame), as the sphere sensor reads them: those
+    within `radius` of p (inclusive, as SceneGraph's threshold), nearest
+    first. (SceneGraph ranks by signed distance: the same order unless p is
+    inside an obstacle, which points cannot tell.)"""
+    r_o = points - p
+    distances = np.sqrt(np.sum(r_o * r_o, axis=1))
+    within = distances <= radius
+    return obstacle_signal(r_o[within][nearest_first(distances[within])])
+
+
 def obstacle_signal(points) -> np.ndarray:
     """The "obstacle" signal from up to OBSTACLE_COUNT vectors r_o, nearest
     first; the readings not filled are "nothing seen"."""

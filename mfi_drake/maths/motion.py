@@ -32,6 +32,7 @@ from mfi_drake.maths.layout import (
     POSITION,
     READING_SIZE,
     VELOCITY,
+    nearest_first,
 )
 from mfi_drake.maths.so3 import dot, entries, norm
 
@@ -235,9 +236,7 @@ def vehicle_readings(
     if found == statics:
         return scene, u, vehicle
     signal = np.zeros(OBSTACLE_SIGNAL_SIZE)
-    order = np.argsort(gaps[:found], kind="mergesort")  # stable: ties in order
-    for i in range(min(found, OBSTACLE_COUNT)):
-        c = order[i]
+    for i, c in enumerate(nearest_first(gaps[:found])):
         signal[READING_SIZE * i : READING_SIZE * i + 3] = points[c]
         signal[READING_SIZE * i + 3] = 1.0
         if moving[c] >= 0:

@@ -273,8 +273,14 @@ def GoalAttractionSelector_(T):
 
         def initial_mode(self, x) -> int:
             """The mode eq 21 selects at rest-or-moving state x from scratch."""
+            return self.next_mode(fields.MODE_PD, x)
+
+        def next_mode(self, mode: int, x) -> int:
+            """The mode eq 21 selects from `mode` at state x: switched where
+            the guard that mode's witness function watches has been crossed
+            (`fields.next_mode`)."""
             p, v = position_velocity(x)
-            return fields.next_mode(fields.MODE_PD, p, v, self.goal, self.params)
+            return fields.next_mode(mode, p, v, self.goal, self.params)
 
         def _write_mode(self, state, mode: int) -> None:
             state.get_mutable_discrete_state(self._mode_index).SetAtIndex(
@@ -287,8 +293,7 @@ def GoalAttractionSelector_(T):
         def _follow_jump(self, context, state):
             """The mode eq 21 asks for if a guard is already crossed."""
             mode = self.mode(context)
-            p, v = position_velocity(self._state.Eval(context))
-            new = fields.next_mode(mode, p, v, self.goal, self.params)
+            new = self.next_mode(mode, self._state.Eval(context))
             if new == mode:
                 return EventStatus.DidNothing()
             self._write_mode(state, new)

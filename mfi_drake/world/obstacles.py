@@ -25,7 +25,7 @@ from pydrake.math import RigidTransform
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
-from mfi_drake.maths.layout import OBSTACLE_COUNT, obstacle_signal
+from mfi_drake.maths.layout import nearest_first, obstacle_signal
 from mfi_drake.world.motion import ObstacleFrames, obstacle_pose
 from mfi_drake.world.shapes import drake_shape, shape_mesh
 
@@ -113,8 +113,8 @@ def nearest_obstacles(query_object, p: np.ndarray, threshold: float) -> np.ndarr
     the ground and other vehicles' spheres carry the proximity role.
     """
     results = query_object.ComputeSignedDistanceToPoint(p, threshold)
-    nearest = sorted(results, key=lambda r: r.distance)[:OBSTACLE_COUNT]
-    return obstacle_signal([-r.distance * r.grad_W for r in nearest])
+    order = nearest_first(np.array([r.distance for r in results]))
+    return obstacle_signal([-results[i].distance * results[i].grad_W for i in order])
 
 
 def obstacle_distances(
