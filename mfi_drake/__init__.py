@@ -9,6 +9,20 @@ else):
   `method` is a name of `METHODS`, "MODULE:NAME" of a user's field, or the
   field function itself.
 
+The builder API, MFI in a user's own Drake diagram (docs/api.md):
+
+- `add_navigation(builder, plant, scene_graph, goal, ...)`: the sensor,
+  navigator, goal attraction, attitude PD, mixer and logger around the
+  user's QuadrotorPlant or MultibodyPlant; `NavigationHandles`;
+  `add_scenario_navigation`, the same from a `Scenario`'s fields;
+- its pieces `add_sensor`, `add_controller` (`Controller`), `add_logger`,
+  `LOG_LAYOUT`;
+- `apply_simulator_config(config, simulator)` with
+  `default_simulator_config()`: what a plain Simulator needs beyond
+  Drake's ApplySimulatorConfig (eq 21's witnesses read the context's
+  accuracy);
+- `BuilderError`: a bad argument, named.
+
 The layers, imports only downward (tests/test_layers.py): maths → config →
 world → systems → flight → studies → app.
 """
@@ -22,6 +36,22 @@ _API = {
     "simulate": "mfi_drake.flight.simulation",
     "Flight": "mfi_drake.flight.simulation",
     "METHODS": "mfi_drake.flight.methods",
+    "add_navigation": "mfi_drake.flight.builder",
+    "add_scenario_navigation": "mfi_drake.flight.builder",
+    "NavigationHandles": "mfi_drake.flight.builder",
+    "BuilderError": "mfi_drake.flight.builder",
+    "apply_simulator_config": "mfi_drake.flight.builder",
+    "default_simulator_config": "mfi_drake.config.scenario",
+    "add_sensor": "mfi_drake.flight.chain",
+    "add_controller": "mfi_drake.flight.chain",
+    "Controller": "mfi_drake.flight.chain",
+    "add_logger": "mfi_drake.flight.chain",
+    "LOG_LAYOUT": "mfi_drake.flight.chain",
+    "SphereSensor": "mfi_drake.config.scenario",
+    "DepthCamera": "mfi_drake.config.scenario",
+    "DepthCameraRig": "mfi_drake.config.scenario",
+    "NavigatorParams": "mfi_drake.config.parameters",
+    "Faults": "mfi_drake.config.faults",
 }
 
 __all__ = sorted(_API)

@@ -263,6 +263,7 @@ def add_scenario_navigation(
     ignored = own_geometry(scene_graph, rig.own_frames)
     vehicle = VEHICLES[scenario.vehicle]
     check_goal_clear(builder, scene_graph, scenario.goal, vehicle, ignored)
+    rig.connect()  # nothing is added to builder before every check has passed
     moving = scene_moves(builder, scene_graph, ignored)
     sensor = add_sensor(
         builder,
@@ -306,15 +307,21 @@ def add_scenario_navigation(
 
 @dataclass
 class _Rig:
-    """How the chain meets a plant: its state and rotor ports, the frames of
-    its own geometry, where cameras ride and how it is placed at a start."""
+    """How the chain meets a plant: its state and rotor ports (once
+    `connect` has added what they need), the frames of its own geometry,
+    where cameras ride and how it is placed at a start."""
 
-    state: OutputPort
-    rotor_command: InputPort
     own_frames: tuple
     mount: CameraMount | None
     place: Callable[[Context, np.ndarray], None]
     body: RigidBody | None = None
+    state: OutputPort | None = None
+    rotor_command: InputPort | None = None
+    add_ports: Callable[[], tuple[OutputPort, InputPort]] | None = None
+
+    def connect(self) -> None:
+        if self.add_ports is not None:
+            self.state, self.rotor_command = self.add_ports()
 
 
 def _check_added(builder: DiagramBuilder, name: str, system, kind) -> None:
@@ -357,12 +364,6 @@ def place_quadrotor(plant: QuadrotorPlant, root_context: Context, position) -> N
 def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
     """The MultibodyPlant vehicle: its `body`'s pose and velocity as
     QuadrotorPlant's state, Drake's Propellers on it (`systems.multibody`)."""
-    from mfi_drake.systems.multibody import (
-        MultibodyVehicleState,
-        add_propellers,
-        place_vehicle,
-    )
-
     if not plant.is_finalized():
         raise BuilderError(
             f"plant = {plant.get_name()!r}: a MultibodyPlant must be finalized "
@@ -376,20 +377,10 @@ def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
             f"vehicle = {scenario.vehicle!r}: its mass {vehicle.mass} kg is not "
             f"body {rigid.name()!r}'s {mass} kg"
         )
-    state = builder.AddNamedSystem(
-        "vehicle_state", MultibodyVehicleState(rigid.index())
-    )
-    builder.Connect(
-        plant.get_body_poses_output_port(), state.GetInputPort("body_poses")
-    )
-    builder.Connect(
-        plant.get_body_spatial_velocities_output_port(),
-        state.GetInputPort("body_spatial_velocities"),
-    )
-    propeller = add_propellers(builder, plant, rigid, scenario.vehicle)
     own, mount = (), None
-    if plant.geometry_source_is_registered() and scene_graph.SourceIsRegistered(
-        plant.get_source_id()
+    if (
+        plant.geometry_source_is_registered()
+        and scene_graph.model_inspector().SourceIsRegistered(plant.get_source_id())
     ):
         frame = plant.GetBodyFrameIdOrThrow(rigid.index())
         own = (frame,)
@@ -400,19 +391,32 @@ def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
             "scene_graph (register the plant with it)"
         )
 
+    from mfi_drake.systems.multibody import (
+        MultibodyVehicleState,
+        add_propellers,
+        place_vehicle,
+    )
+
+    def add_ports() -> tuple[OutputPort, InputPort]:
+        state = builder.AddNamedSystem(
+            "vehicle_state", MultibodyVehicleState(rigid.index())
+        )
+        builder.Connect(
+            plant.get_body_poses_output_port(), state.GetInputPort("body_poses")
+        )
+        builder.Connect(
+            plant.get_body_spatial_velocities_output_port(),
+            state.GetInputPort("body_spatial_velocities"),
+        )
+        propeller = add_propellers(builder, plant, rigid, scenario.vehicle)
+        return state.GetOutputPort("state"), propeller.get_command_input_port()
+
     def place(context: Context, position: np.ndarray) -> None:
         place_vehicle(
             plant, plant.GetMyMutableContextFromRoot(context), rigid, position
         )
 
-    return _Rig(
-        state=state.GetOutputPort("state"),
-        rotor_command=propeller.get_command_input_port(),
-        own_frames=own,
-        mount=mount,
-        place=place,
-        body=rigid,
-    )
+    return _Rig(own, mount, place, body=rigid, add_ports=add_ports)
 
 
 def _floating_body(plant: MultibodyPlant, body) -> RigidBody:
@@ -446,7 +450,7 @@ def _multibody_plants(builder: DiagramBuilder, scene_graph: SceneGraph) -> list:
         if isinstance(s, MultibodyPlant)
         and s.is_finalized()
         and s.geometry_source_is_registered()
-        and scene_graph.SourceIsRegistered(s.get_source_id())
+        and scene_graph.model_inspector().SourceIsRegistered(s.get_source_id())
     ]
 
 
