@@ -24,12 +24,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 from pydrake.examples import QuadrotorPlant
-from pydrake.geometry import (
-    GeometryInstance,
-    ProximityProperties,
-    Role,
-    SceneGraph,
-)
+from pydrake.geometry import FramePoseVector, Role, SceneGraph
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RigidBody
@@ -485,38 +480,36 @@ def check_goal_clear(
     """Raises BuilderError where the vehicle at `goal` would touch an
     obstacle (closer than its collision radius): anchored geometry, and a
     finalized MultibodyPlant's posed at its default context (see
-    `add_navigation`). The geometry is copied into a SceneGraph of its own:
-    the user's may hold a renderer, costly to clone into a context."""
+    `add_navigation`), read with SceneGraph's own signed distance query in
+    a context of its own. Other sources' frames are posed anywhere there
+    and their geometry is not checked."""
     inspector = scene_graph.model_inspector()
-    poses = {inspector.world_frame_id(): RigidTransform()}
+    context = scene_graph.CreateDefaultContext()
+    known = {inspector.world_frame_id()}
+    posed = set()
     for plant in _multibody_plants(builder, scene_graph):
-        frame_poses = plant.get_geometry_pose_output_port().Eval(
-            plant.CreateDefaultContext()
-        )
-        for frame in frame_poses.ids():
-            poses[frame] = frame_poses.value(frame)
-    copy = SceneGraph()
-    source = copy.RegisterSource("goal_check")
-    names = {}
-    for g in inspector.GetAllGeometryIds(Role.kProximity):
-        frame = inspector.GetFrameId(g)
-        if g in ignored or frame not in poses:
-            continue
-        instance = GeometryInstance(
-            poses[frame] @ inspector.GetPoseInFrame(g),
-            inspector.GetShape(g),
-            inspector.GetName(g),
-        )
-        instance.set_proximity_properties(ProximityProperties())
-        names[copy.RegisterAnchoredGeometry(source, instance)] = inspector.GetName(g)
-    if not names:
-        return
+        poses = plant.get_geometry_pose_output_port().Eval(plant.CreateDefaultContext())
+        scene_graph.get_source_pose_port(plant.get_source_id()).FixValue(context, poses)
+        known.update(poses.ids())
+        posed.add(plant.get_source_id())
+    for source in inspector.GetAllSourceIds():
+        world = inspector.world_frame_id()
+        frames = [f for f in inspector.FramesForSource(source) if f != world]
+        if source not in posed and frames:
+            anywhere = FramePoseVector()
+            for frame in frames:
+                anywhere.set_value(frame, RigidTransform())
+            scene_graph.get_source_pose_port(source).FixValue(context, anywhere)
     radius = vehicle.collision_radius
-    query = copy.get_query_output_port().Eval(copy.CreateDefaultContext())
+    query = scene_graph.get_query_output_port().Eval(context)
     for r in query.ComputeSignedDistanceToPoint(np.asarray(goal, float), radius):
-        if r.distance < radius:
+        if (
+            r.distance < radius
+            and r.id_G not in ignored
+            and inspector.GetFrameId(r.id_G) in known
+        ):
             raise BuilderError(
                 f"goal = {list(goal)}: the vehicle there (collision radius "
-                f"{radius} m) would touch the obstacle {names[r.id_G]!r} "
-                f"(distance {r.distance:.3f} m)"
+                f"{radius} m) would touch the obstacle "
+                f"{inspector.GetName(r.id_G)!r} (distance {r.distance:.3f} m)"
             )
