@@ -9,7 +9,7 @@ else):
   `method` is a name of `METHODS`, "MODULE:NAME" of a user's field, or the
   field function itself.
 
-The builder API, MFI in a user's own Drake diagram (docs/api.md):
+The builder API, MFI in a user's own Drake diagram (docs/builder.md):
 
 - `add_navigation(builder, plant, scene_graph, goal, ...)`: the sensor,
   navigator, goal attraction, attitude PD, mixer and logger around the
