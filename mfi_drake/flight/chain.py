@@ -103,7 +103,9 @@ def add_sensor(
     (GeometryIds or FrameIds: the vehicle's own shapes). `moving`: whether
     any of them moves (turns off the sphere sensor's memo). Cameras ride on
     `mount`; without one a `VehicleGeometry` "vehicle_geometry" is added,
-    posed from `state_port`; their "state" input is left for
+    posed from `state_port`, whose shapes no camera sees; where the
+    vehicle has shapes of its own (`ignore`), the cameras' near plane is
+    put beyond its collision radius. Their "state" input is left for
     `add_controller` to feed with the state estimate.
 
     `other_vehicles`: how many other vehicles of a fleet the diagram sees
@@ -145,7 +147,8 @@ def add_sensor(
             scene_graph,
             mount.frame_id,
             mount.pose_port,
-            clear_of=radius if other_vehicles else 0.0,
+            # Beyond the own sphere where the vehicle has shapes in SceneGraph.
+            clear_of=radius if other_vehicles or ignore else 0.0,
         )
     if not isinstance(sensor, SphereSensor):
         raise TypeError(f"sensor = {sensor!r}: not a SphereSensor or camera rig")
