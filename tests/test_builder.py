@@ -284,22 +284,31 @@ def test_the_sensor_ignores_the_vehicles_own_geometry():
     assert alone[:3] == pytest.approx([1.0, 0.0, 0.0])
 
 
-@pytest.mark.parametrize("scene", ["faults", "cameras"])
+@pytest.mark.parametrize("scene", ["faults", "cameras", "moving"])
 def test_build_diagram_is_the_public_pieces(scene):
-    # A scenario's diagram holds its SceneGraph and QuadrotorPlant and
-    # exactly the systems add_navigation adds to a user's, in its order.
+    # A scenario's diagram holds its SceneGraph (with the obstacles' motion
+    # where they move) and QuadrotorPlant and exactly the systems
+    # add_navigation adds to a user's, in its order: moving obstacles in
+    # the user's SceneGraph give the same relative navigator.
     from mfi_drake.flight.diagram import build_diagram
+    from mfi_drake.systems.motion import ObstacleMotion
+    from mfi_drake.world.obstacles import register_obstacles
 
     scenarios = pathlib.Path(__file__).parents[1] / "scenarios"
-    if scene == "faults":
-        scenario = load_scenario(str(scenarios / "planar_wall_faults.yaml"))
-    else:
-        scenario = load_scenario(str(scenarios / "planar_wall.yaml"))
+    name = {"faults": "planar_wall_faults", "moving": "moving_crossing"}
+    scenario = load_scenario(str(scenarios / f"{name.get(scene, 'planar_wall')}.yaml"))
+    if scene == "cameras":
         scenario = replace(scenario, sensor=DepthCameraRig())
     built = build_diagram(scenario).diagram
 
     builder = DiagramBuilder()
     scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
+    if scene == "moving":
+        frames = register_obstacles(scene_graph, scenario)
+        motion = builder.AddNamedSystem("obstacle_motion", ObstacleMotion(frames))
+        builder.Connect(
+            motion.get_output_port(), scene_graph.get_source_pose_port(frames.source_id)
+        )
     quadrotor = builder.AddNamedSystem("quadrotor", QuadrotorPlant())
     add_navigation(
         builder,

@@ -1,6 +1,7 @@
 """MFI navigation in a user's own Drake diagram:
 
-    from mfi_drake import add_navigation, apply_simulator_config
+    from mfi_drake import (add_navigation, apply_simulator_config,
+                           default_simulator_config)
 
     handles = add_navigation(builder, plant=quadrotor, scene_graph=scene_graph,
                              goal=[12.0, 0.0, 1.5])
@@ -24,8 +25,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 from pydrake.examples import QuadrotorPlant
-from pydrake.geometry import FramePoseVector, Role, SceneGraph
-from pydrake.math import RigidTransform
+from pydrake.geometry import SceneGraph
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RigidBody
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
@@ -56,6 +56,7 @@ from mfi_drake.flight.chain import (
     own_geometry,
 )
 from mfi_drake.flight.methods import Method, MethodError, resolve_method
+from mfi_drake.flight.scene import goal_obstacle, scene_moves
 from mfi_drake.maths.layout import POSITION, STATE_SIZE
 
 WITNESS_SCALE = 0.01  # Drake's witness isolation window over the context's accuracy
@@ -257,7 +258,15 @@ def add_scenario_navigation(
     rig = _vehicle(builder, plant, body, scene_graph, scenario)
     ignored = own_geometry(scene_graph, rig.own_frames)
     vehicle = VEHICLES[scenario.vehicle]
-    check_goal_clear(builder, scene_graph, scenario.goal, vehicle, ignored)
+    touched = goal_obstacle(
+        builder, scene_graph, scenario.goal, vehicle.collision_radius, ignored
+    )
+    if touched is not None:
+        raise BuilderError(
+            f"goal = {scenario.goal}: the vehicle there (collision radius "
+            f"{vehicle.collision_radius} m) would touch the obstacle "
+            f"{touched[0]!r} (distance {touched[1]:.3f} m)"
+        )
     rig.connect()  # nothing is added to builder before every check has passed
     moving = scene_moves(builder, scene_graph, ignored)
     sensor = add_sensor(
@@ -434,82 +443,3 @@ def _floating_body(plant: MultibodyPlant, body) -> RigidBody:
     if not rigid.is_floating_base_body():
         raise BuilderError(f"body = {rigid.name()!r}: is not a floating body")
     return rigid
-
-
-def _multibody_plants(builder: DiagramBuilder, scene_graph: SceneGraph) -> list:
-    """The finalized MultibodyPlants of `builder` whose geometry is in
-    `scene_graph`."""
-    return [
-        s
-        for s in builder.GetSystems()
-        if isinstance(s, MultibodyPlant)
-        and s.is_finalized()
-        and s.geometry_source_is_registered()
-        and scene_graph.model_inspector().SourceIsRegistered(s.get_source_id())
-    ]
-
-
-def scene_moves(
-    builder: DiagramBuilder, scene_graph: SceneGraph, ignored: frozenset
-) -> bool:
-    """Whether any obstacle can move: a proximity geometry (not the
-    vehicle's own) neither anchored nor on a body that a finalized
-    MultibodyPlant welds to the world. In a scenario's diagram, exactly
-    whether an obstacle has a motion (`world.motion.obstacles_move`)."""
-    inspector = scene_graph.model_inspector()
-    fixed = {inspector.world_frame_id()}
-    for plant in _multibody_plants(builder, scene_graph):
-        for welded in plant.GetBodiesWeldedTo(plant.world_body()):
-            frame = plant.GetBodyFrameIdIfExists(welded.index())
-            if frame is not None:
-                fixed.add(frame)
-    return any(
-        inspector.GetFrameId(g) not in fixed
-        for g in inspector.GetAllGeometryIds(Role.kProximity)
-        if g not in ignored
-    )
-
-
-def check_goal_clear(
-    builder: DiagramBuilder,
-    scene_graph: SceneGraph,
-    goal,
-    vehicle: Vehicle,
-    ignored: frozenset,
-) -> None:
-    """Raises BuilderError where the vehicle at `goal` would touch an
-    obstacle (closer than its collision radius): anchored geometry, and a
-    finalized MultibodyPlant's posed at its default context (see
-    `add_navigation`), read with SceneGraph's own signed distance query in
-    a context of its own. Other sources' frames are posed anywhere there
-    and their geometry is not checked."""
-    inspector = scene_graph.model_inspector()
-    context = scene_graph.CreateDefaultContext()
-    known = {inspector.world_frame_id()}
-    posed = set()
-    for plant in _multibody_plants(builder, scene_graph):
-        poses = plant.get_geometry_pose_output_port().Eval(plant.CreateDefaultContext())
-        scene_graph.get_source_pose_port(plant.get_source_id()).FixValue(context, poses)
-        known.update(poses.ids())
-        posed.add(plant.get_source_id())
-    for source in inspector.GetAllSourceIds():
-        world = inspector.world_frame_id()
-        frames = [f for f in inspector.FramesForSource(source) if f != world]
-        if source not in posed and frames:
-            anywhere = FramePoseVector()
-            for frame in frames:
-                anywhere.set_value(frame, RigidTransform())
-            scene_graph.get_source_pose_port(source).FixValue(context, anywhere)
-    radius = vehicle.collision_radius
-    query = scene_graph.get_query_output_port().Eval(context)
-    for r in query.ComputeSignedDistanceToPoint(np.asarray(goal, float), radius):
-        if (
-            r.distance < radius
-            and r.id_G not in ignored
-            and inspector.GetFrameId(r.id_G) in known
-        ):
-            raise BuilderError(
-                f"goal = {list(goal)}: the vehicle there (collision radius "
-                f"{radius} m) would touch the obstacle "
-                f"{inspector.GetName(r.id_G)!r} (distance {r.distance:.3f} m)"
-            )
