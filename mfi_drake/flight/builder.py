@@ -241,11 +241,13 @@ def add_scenario_navigation(
     method: "str | Callable | Method" = "mfi",
     *,
     body: str | RigidBody | None = None,
+    check_goal: bool = True,
 ) -> NavigationHandles:
     """`add_navigation` with its keywords given by a Scenario's navigation
     fields (goal, vehicle, sensor, the method's gains, relative_velocity,
     other_vehicles, faults); `flight.diagram.build_diagram` builds every
-    scenario's diagram with it."""
+    scenario's diagram with it. `check_goal`: refuse a goal where the
+    vehicle would touch an obstacle (see `add_navigation`)."""
     try:
         method = resolve_method(method)
     except MethodError as e:
@@ -258,10 +260,10 @@ def add_scenario_navigation(
     rig = _vehicle(builder, plant, body, scene_graph, scenario)
     ignored = own_geometry(scene_graph, rig.own_frames)
     vehicle = VEHICLES[scenario.vehicle]
-    touched = goal_obstacle(
+    touched = check_goal and goal_obstacle(
         builder, scene_graph, scenario.goal, vehicle.collision_radius, ignored
     )
-    if touched is not None:
+    if touched:
         raise BuilderError(
             f"goal = {scenario.goal}: the vehicle there (collision radius "
             f"{vehicle.collision_radius} m) would touch the obstacle "
