@@ -15,8 +15,8 @@ The builder API, MFI in a user's own Drake diagram (docs/builder.md):
   navigator, goal attraction, attitude PD, mixer and logger around the
   user's QuadrotorPlant or MultibodyPlant; `NavigationHandles`;
   `add_scenario_navigation`, the same from a `Scenario`'s fields;
-- its pieces `add_sensor`, `add_controller` (`Controller`), `add_logger`,
-  `LOG_LAYOUT`;
+- its pieces `add_sensor`, `add_controller` (`Controller`; its Scenario
+  from `navigation_scenario(goal, ...)`), `add_logger`, `LOG_LAYOUT`;
 - `apply_simulator_config(config, simulator)` with
   `default_simulator_config()`: what a plain Simulator needs beyond
   Drake's ApplySimulatorConfig (eq 21's witnesses read the context's
@@ -38,6 +38,7 @@ _API = {
     "METHODS": "mfi_drake.flight.methods",
     "add_navigation": "mfi_drake.flight.builder",
     "add_scenario_navigation": "mfi_drake.flight.builder",
+    "navigation_scenario": "mfi_drake.flight.builder",
     "NavigationHandles": "mfi_drake.flight.builder",
     "BuilderError": "mfi_drake.flight.builder",
     "apply_simulator_config": "mfi_drake.flight.builder",
