@@ -11,6 +11,23 @@ else):
 - `NavigationStep(goal, method="mfi", ...)`: the navigation chain one
   call at a time, `step(state, points) -> StepOutput`, for a flight stack.
 
+The builder API, MFI in a user's own Drake diagram (docs/builder.md):
+
+- `add_navigation(builder, plant, scene_graph, goal, ...)`: the sensor,
+  navigator, goal attraction, attitude PD, mixer and logger around the
+  user's QuadrotorPlant or MultibodyPlant; `NavigationHandles`;
+  `add_scenario_navigation`, the same from a `Scenario`'s fields;
+- its pieces `add_sensor`, `add_controller` (`Controller`; its Scenario
+  from `navigation_scenario(goal, ...)`), `add_logger`, `LOG_LAYOUT`;
+- `apply_simulator_config(config, simulator)` with
+  `default_simulator_config()`: what a plain Simulator needs beyond
+  Drake's ApplySimulatorConfig (eq 21's witnesses read the context's
+  accuracy);
+- `BuilderError`: a bad argument, named;
+- the MultibodyPlant vehicle: `vehicle_model_path(name)` (its SDFormat
+  file), `add_vehicle_model(plant, vehicle)`, `add_propellers`,
+  `add_vehicle_state` (`MultibodyVehicleState`), `place_vehicle`.
+
 The layers, imports only downward (tests/test_layers.py): maths → config →
 world → systems → flight → studies → app.
 """
@@ -26,6 +43,29 @@ _API = {
     "METHODS": "mfi_drake.flight.methods",
     "NavigationStep": "mfi_drake.flight.step",
     "StepOutput": "mfi_drake.flight.step",
+    "add_navigation": "mfi_drake.flight.builder",
+    "add_scenario_navigation": "mfi_drake.flight.builder",
+    "navigation_scenario": "mfi_drake.flight.builder",
+    "NavigationHandles": "mfi_drake.flight.builder",
+    "BuilderError": "mfi_drake.flight.builder",
+    "apply_simulator_config": "mfi_drake.flight.builder",
+    "default_simulator_config": "mfi_drake.config.scenario",
+    "add_sensor": "mfi_drake.flight.chain",
+    "add_controller": "mfi_drake.flight.chain",
+    "Controller": "mfi_drake.flight.chain",
+    "add_logger": "mfi_drake.flight.chain",
+    "LOG_LAYOUT": "mfi_drake.flight.chain",
+    "SphereSensor": "mfi_drake.config.scenario",
+    "DepthCamera": "mfi_drake.config.scenario",
+    "DepthCameraRig": "mfi_drake.config.scenario",
+    "NavigatorParams": "mfi_drake.config.parameters",
+    "Faults": "mfi_drake.config.faults",
+    "add_vehicle_model": "mfi_drake.systems.multibody",
+    "add_vehicle_state": "mfi_drake.systems.multibody",
+    "add_propellers": "mfi_drake.systems.multibody",
+    "place_vehicle": "mfi_drake.systems.multibody",
+    "MultibodyVehicleState": "mfi_drake.systems.multibody",
+    "vehicle_model_path": "mfi_drake.config.vehicles",
 }
 
 __all__ = sorted(_API)

@@ -77,7 +77,11 @@ class Rig:
             self.scene_graph.get_source_pose_port(geometry.source_id),
         )
         self.sensor = add_depth_cameras(
-            builder, self.scenario.sensor, self.scene_graph, geometry
+            builder,
+            self.scenario.sensor,
+            self.scene_graph,
+            geometry.frame_id,
+            geometry.get_output_port(0),
         )
         builder.ExportInput(geometry.get_input_port(0), "state")
         builder.ExportInput(self.sensor.GetInputPort("state"), "estimate")

@@ -1,7 +1,7 @@
 """`build_analysis_diagram`: the flight diagram without SceneGraph.
 
 The same plant (`diagram.make_plant`), navigator, selector, attitude PD and
-mixer, wired by `diagram.connect_controller`, with the navigator's
+mixer, wired by `chain.connect_controller`, with the navigator's
 "obstacle" input fed by a constant "nothing seen" source. Its selector has a
 fixed mode (eq 21's PD or cruise), so the diagram has no discrete state and
 Drake's `Linearize` converts it to AutoDiffXd as it is.
@@ -17,7 +17,8 @@ from pydrake.systems.primitives import ConstantVectorSource
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import VEHICLES, Vehicle
-from mfi_drake.flight.diagram import connect_controller, make_plant
+from mfi_drake.flight.chain import connect_controller
+from mfi_drake.flight.diagram import make_plant
 from mfi_drake.maths import fields
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE
 from mfi_drake.systems.control import AttitudePD, RotorMixer
@@ -58,7 +59,13 @@ def build_analysis_diagram(
             ("mixer", RotorMixer(vehicle)),
         )
     ]
-    connect_controller(builder, plant, nothing_seen.get_output_port(0), *controller)
+    connect_controller(
+        builder,
+        plant.get_output_port(0),
+        nothing_seen.get_output_port(0),
+        *controller,
+        plant.get_input_port(0),
+    )
     diagram = builder.Build()
     diagram.set_name(f"mfi_drake analysis[{scenario.name}, mode {mode}]")
     return AnalysisDiagram(diagram, plant, vehicle, params, goal)

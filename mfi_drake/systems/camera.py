@@ -31,6 +31,7 @@ from pydrake.geometry import (
     ClippingRange,
     DepthRange,
     DepthRenderCamera,
+    FrameId,
     MakeRenderEngineVtk,
     RenderCameraCore,
     RenderEngineVtkParams,
@@ -38,7 +39,7 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.perception import DepthImageToPointCloud, PointCloud
-from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
 from pydrake.systems.sensors import CameraInfo, ImageDepth32F, RgbdSensor
 
 from mfi_drake.config.scenario import (
@@ -66,7 +67,6 @@ from mfi_drake.maths.perception import (
     point_gimbal,
 )
 from mfi_drake.systems.gimbal import GimbalPose
-from mfi_drake.systems.sensors import VehicleGeometry
 
 RENDERER = "vtk"
 NEAR_CLIP = 0.01  # m, the renderer's near clipping plane
@@ -303,11 +303,14 @@ def add_depth_cameras(
     builder: DiagramBuilder,
     sensor: Cameras,
     scene_graph: SceneGraph,
-    geometry: VehicleGeometry,
+    body_frame: FrameId,
+    body_pose: OutputPort,
     clear_of: float = 0.0,
 ) -> DepthCameraSensor:
     """Adds the VTK renderer and, per camera of the rig, an RgbdSensor on the
-    vehicle's body frame and a DepthImageToPointCloud, all feeding the
+    vehicle's body frame `body_frame` (of SceneGraph, posed by the
+    FramePoseVector port `body_pose`: a `VehicleGeometry`'s or a
+    MultibodyPlant's) and a DepthImageToPointCloud, all feeding the
     DepthCameraSensor "sensor"; returns the latter. Its "state" input is
     left for the caller to connect to the controller's state estimate. With
     a gimbal the RgbdSensors ride on the frame of a `GimbalPose` "gimbal"
@@ -323,13 +326,12 @@ def add_depth_cameras(
         "sensor",
         DepthCameraSensor(cameras, sensor.rate_hz, sensor.memory_s, gimbal, p_BG),
     )
-    mount = geometry.frame_id
+    mount = body_frame
     if gimbal is not None:
         pose = builder.AddNamedSystem(
-            "gimbal",
-            GimbalPose(scene_graph, geometry.frame_id, p_BG, "gimbal"),
+            "gimbal", GimbalPose(scene_graph, body_frame, p_BG, "gimbal")
         )
-        builder.Connect(geometry.get_output_port(0), pose.GetInputPort("body_pose"))
+        builder.Connect(body_pose, pose.GetInputPort("body_pose"))
         builder.Connect(
             perception.GetOutputPort("gimbal_angles"),
             pose.GetInputPort("gimbal_angles"),

@@ -50,12 +50,15 @@ class SphereSensor(LeafSystem):
 
     `moving`: whether proximity geometry moves (obstacles with a motion,
     other vehicles), which turns off the memo of the last reading.
+    `ignore`: GeometryIds that are no obstacle (the vehicle's own shapes,
+    where it has proximity geometry in SceneGraph).
     """
 
-    def __init__(self, radius: float, moving: bool = False):
+    def __init__(self, radius: float, moving: bool = False, ignore=()):
         super().__init__()
         self._radius = float(radius)
         self._moving = bool(moving)
+        self._ignore = frozenset(ignore)
         # (position bytes, geometry version, reading, position), see _calc
         self._last = (None, None, None, None)
         self._query = self.DeclareAbstractInputPort(
@@ -73,7 +76,9 @@ class SphereSensor(LeafSystem):
         p = self._state.Eval(context)[POSITION]
         query = self._query.Eval(context)
         if self._moving:
-            output.SetFromVector(nearest_obstacles(query, p, self._radius))
+            output.SetFromVector(
+                nearest_obstacles(query, p, self._radius, self._ignore)
+            )
             return
         # The obstacles are anchored, so the reading depends on p and on the
         # proximity geometry, which only changes with its version; the
@@ -96,9 +101,11 @@ class SphereSensor(LeafSystem):
             # that reach lets SceneGraph's broadphase skip every obstacle
             # beyond it, and the reading is the one of the full radius.
             reach = min(reach, math.hypot(*farthest) + math.dist(p, last_p) + SLACK)
-        value = nearest_obstacles(query, p, reach)
+        value = nearest_obstacles(query, p, reach, self._ignore)
         if readings(value)[-1][1] <= 0.5 and reach < self._radius:
-            value = nearest_obstacles(query, p, self._radius)  # never met so far
+            value = nearest_obstacles(
+                query, p, self._radius, self._ignore
+            )  # never met so far
         self._last = (key, copy.copy(current), value, p.copy())
         output.SetFromVector(value)
 

@@ -104,15 +104,22 @@ def sensed(instance: GeometryInstance, rgba: Rgba, label: RenderLabel) -> None:
     instance.set_perception_properties(perception)
 
 
-def nearest_obstacles(query_object, p: np.ndarray, threshold: float) -> np.ndarray:
+def nearest_obstacles(
+    query_object, p: np.ndarray, threshold: float, ignore: frozenset = frozenset()
+) -> np.ndarray:
     """The "obstacle" signal: the closest point of each of the
-    OBSTACLE_COUNT proximity geometries nearest to p within `threshold`.
+    OBSTACLE_COUNT proximity geometries nearest to p within `threshold`,
+    but those whose GeometryId is in `ignore` (a vehicle's own geometry).
 
     Uses SceneGraph's ComputeSignedDistanceToPoint: the closest point is
-    p − d ∇d (∇d is the outward gradient), so r_o = −d ∇d. Only obstacles,
-    the ground and other vehicles' spheres carry the proximity role.
+    p − d ∇d (∇d is the outward gradient), so r_o = −d ∇d. Every proximity
+    geometry is an obstacle: in a scenario's diagram the obstacles, the
+    ground and other vehicles' spheres; in a user's, whatever they
+    registered.
     """
     results = query_object.ComputeSignedDistanceToPoint(p, threshold)
+    if ignore:
+        results = [r for r in results if r.id_G not in ignore]
     order = nearest_first(np.array([r.distance for r in results]))
     return obstacle_signal([-results[i].distance * results[i].grad_W for i in order])
 

@@ -1,0 +1,433 @@
+"""MFI navigation in a user's own Drake diagram:
+
+    from mfi_drake import (add_navigation, apply_simulator_config,
+                           default_simulator_config)
+
+    handles = add_navigation(builder, plant=quadrotor, scene_graph=scene_graph,
+                             goal=[12.0, 0.0, 1.5])
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    apply_simulator_config(default_simulator_config(), simulator)
+    handles.set_start(simulator.get_mutable_context(), [0.0, 0.0, 1.5])
+    simulator.AdvanceTo(30.0)
+
+`add_navigation` is `flight.chain`'s pieces around the user's plant:
+`add_sensor`, `add_controller` and `add_logger`. Every proximity geometry
+of the SceneGraph is an obstacle, whoever registered it; the vehicle's own
+never is. `flight.diagram.build_diagram` builds a scenario's diagram the
+same way (`add_scenario_navigation`), so a scenario's flight and a user's
+flight of the same scene are the same computation.
+"""
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
+from pydrake.examples import QuadrotorPlant
+from pydrake.geometry import SceneGraph
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import RigidBody
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
+from pydrake.systems.framework import (
+    Context,
+    DiagramBuilder,
+    InputPort,
+    OutputPort,
+)
+from pydrake.systems.primitives import VectorLogSink
+
+from mfi_drake.config.faults import Faults
+from mfi_drake.config.parameters import NavigatorParams
+from mfi_drake.config.scenario import (
+    Scenario,
+    ScenarioError,
+    Sensor,
+    SphereSensor,
+    check_scenario,
+)
+from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.flight.chain import (
+    CameraMount,
+    add_controller,
+    add_logger,
+    add_sensor,
+    log_slices,
+    own_geometry,
+)
+from mfi_drake.flight.methods import Method, MethodError, resolve_method
+from mfi_drake.flight.scene import goal_obstacle, scene_moves
+from mfi_drake.maths.layout import POSITION, STATE_SIZE
+from mfi_drake.systems.multibody import add_propellers, add_vehicle_state, place_vehicle
+
+WITNESS_SCALE = 0.01  # Drake's witness isolation window over the context's accuracy
+
+
+class BuilderError(ScenarioError):
+    """An argument of the builder API that cannot be flown; the message is
+    one line naming the argument and its value (a ScenarioError, so the
+    CLI's exit status 2)."""
+
+
+def apply_simulator_config(config: SimulatorConfig, simulator: Simulator) -> None:
+    """Drake's `ApplySimulatorConfig`, and the context's accuracy that eq
+    21's witness functions need (without it Drake's witness isolation
+    raises "accuracy is not set in the context").
+
+    The integrator's accuracy is set by the config. The context's is what
+    witness isolation reads: Drake locates a witness's zero (eq 21's mode
+    switches) to within WITNESS_SCALE × that accuracy × 1 s. Set so that a
+    switch is located to the integrator's accuracy in seconds (1e-4 s at
+    the default), not 100 times finer: on the paper scenarios that is 3–9 %
+    fewer steps, path lengths within 1e-4 m, convergence times within 6 ms."""
+    ApplySimulatorConfig(config, simulator)
+    simulator.get_mutable_context().SetAccuracy(
+        min(1.0, config.accuracy / WITNESS_SCALE)
+    )
+
+
+@dataclass
+class NavigationHandles:
+    """What `add_navigation` added, and how to start and read a flight."""
+
+    sensor: object  # its output "obstacle" is what the navigator reads
+    navigator: object
+    selector: object
+    attitude_pd: object
+    mixer: object
+    logger: VectorLogSink  # LOG_LAYOUT, once per integrator step
+    state: OutputPort  # the vehicle's true 12-vector state the chain reads
+    estimate: OutputPort  # the state the controller reads (through `faults`)
+    rotor_command: InputPort  # the 4 rotor forces the mixer drives
+    vehicle: Vehicle
+    method: str  # its registry name, or a user field's MODULE:NAME
+    plant: object  # the user's QuadrotorPlant or MultibodyPlant
+    body: RigidBody | None  # a MultibodyPlant vehicle's floating body
+    ignored: frozenset  # GeometryIds never seen as obstacles: the vehicle's own
+    place: Callable[[Context, np.ndarray], None] = field(repr=False)
+
+    def set_start(self, root_context: Context, position) -> None:
+        """Puts the vehicle at `position` [m], level and at rest, in the
+        diagram's `root_context`."""
+        self.place(root_context, _point("position", position))
+
+    def log_slices(self) -> dict[str, slice]:
+        return log_slices()
+
+    def read_log(self, root_context: Context) -> tuple[np.ndarray, dict]:
+        """(times, {signal name: (N, size) array}) logged so far."""
+        log = self.logger.FindLog(root_context)
+        data = log.data().T
+        return log.sample_times().copy(), {
+            name: data[:, s] for name, s in log_slices().items()
+        }
+
+
+def add_navigation(
+    builder: DiagramBuilder,
+    plant: QuadrotorPlant | MultibodyPlant,
+    scene_graph: SceneGraph,
+    goal,
+    *,
+    body: str | RigidBody | None = None,
+    method: "str | Callable | Method" = "mfi",
+    vehicle: str = "drake_default",
+    sensor: Sensor | None = None,
+    navigator: NavigatorParams | dict | None = None,
+    faults: Faults | None = None,
+) -> NavigationHandles:
+    """Adds MFI navigation (or `method`'s) to `builder`: a sensor reading
+    `scene_graph`, the navigator, the goal attraction, eq 25's attitude PD
+    and the mixer, from `plant`'s state to its rotor forces, flying to
+    `goal` [x, y, z] (m), and a logger of LOG_LAYOUT.
+
+    `plant`: Drake's QuadrotorPlant in `builder`, or a finalized
+    MultibodyPlant with `body`, the vehicle's floating body (its name or
+    the RigidBody), driven by Drake's Propeller. `scene_graph`: the
+    SceneGraph in `builder`; every proximity geometry in it is an
+    obstacle, whoever registered it, but the vehicle's own (the geometry on
+    `body`'s frame).
+
+    Keywords, as a scenario's fields: `method` ("mfi", "apf", "gf",
+    "mfi-paper", "MODULE:NAME" of a user's field, or the function);
+    `vehicle` (a preset of `config.vehicles`: the controller's mass,
+    inertia and rotor constants); `sensor` (`SphereSensor`, default, or a
+    camera rig); `navigator` (NavigatorParams, or a dict of its fields
+    overriding the defaults); `faults` (`Faults`).
+
+    The goal is checked, at build time, against the geometry whose pose is
+    known then: anchored geometry, and a finalized MultibodyPlant's at its
+    default context (exact for welded bodies; free bodies where they are by
+    default); geometry another source moves is not checked.
+
+    Simulating needs one line beyond a plain Simulator, because eq 21's
+    witness functions need the context's accuracy:
+
+        apply_simulator_config(default_simulator_config(), simulator)
+
+    then `handles.set_start(simulator.get_mutable_context(), start)`.
+    Raises BuilderError naming the first bad argument."""
+    scenario = navigation_scenario(
+        goal, vehicle=vehicle, sensor=sensor, navigator=navigator, faults=faults
+    )
+    return add_scenario_navigation(
+        builder, scenario, plant, scene_graph, method, body=body
+    )
+
+
+def navigation_scenario(
+    goal,
+    *,
+    vehicle: str = "drake_default",
+    sensor: Sensor | None = None,
+    navigator: NavigatorParams | dict | None = None,
+    faults: Faults | None = None,
+) -> Scenario:
+    """The Scenario that holds `add_navigation`'s keywords (its other fields
+    at their defaults), checked as a loaded scenario is; raises BuilderError
+    naming the first bad one."""
+    if faults is not None and not isinstance(faults, Faults):
+        raise BuilderError(f"faults = {faults!r}: must be a Faults")
+    scenario = Scenario(
+        name="add_navigation",
+        goal=_point("goal", goal).tolist(),
+        vehicle=vehicle,
+        sensor=SphereSensor() if sensor is None else sensor,
+        navigator=_navigator_params(navigator),
+        faults=Faults() if faults is None else faults,
+    )
+    try:
+        check_scenario(scenario, "add_navigation")
+    except ScenarioError as e:
+        raise BuilderError(str(e)) from None
+    return scenario
+
+
+def _point(name: str, value) -> np.ndarray:
+    try:
+        point = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        point = None
+    if point is None or point.shape != (3,) or not np.isfinite(point).all():
+        raise BuilderError(
+            f"{name} = {value!r}: must be 3 finite numbers [x, y, z] (m)"
+        )
+    return point
+
+
+def _navigator_params(navigator) -> NavigatorParams:
+    if navigator is None:
+        return NavigatorParams()
+    if isinstance(navigator, NavigatorParams):
+        return replace(navigator)
+    if not isinstance(navigator, dict):
+        raise BuilderError(
+            f"navigator = {navigator!r}: must be a NavigatorParams or a dict of "
+            "its fields"
+        )
+    known = {f.name for f in fields(NavigatorParams)}
+    for key, value in navigator.items():
+        if key not in known:
+            raise BuilderError(
+                f"navigator.{key} = {value!r}: unknown field of NavigatorParams"
+            )
+    return replace(NavigatorParams(), **navigator)
+
+
+def add_scenario_navigation(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    plant: QuadrotorPlant | MultibodyPlant,
+    scene_graph: SceneGraph,
+    method: "str | Callable | Method" = "mfi",
+    *,
+    body: str | RigidBody | None = None,
+    check_goal: bool = True,
+) -> NavigationHandles:
+    """`add_navigation` with its keywords given by a Scenario's navigation
+    fields (goal, vehicle, sensor, the method's gains, relative_velocity,
+    other_vehicles, faults); `flight.diagram.build_diagram` builds every
+    scenario's diagram with it. `check_goal`: refuse a goal where the
+    vehicle would touch an obstacle (see `add_navigation`)."""
+    try:
+        method = resolve_method(method)
+    except MethodError as e:
+        raise BuilderError(f"method = {method!r}: {e}") from None
+    if scenario.vehicle not in VEHICLES:
+        raise BuilderError(
+            f"vehicle = {scenario.vehicle!r}: must be one of {sorted(VEHICLES)}"
+        )
+    _check_added(builder, "scene_graph", scene_graph, SceneGraph)
+    rig = _vehicle(builder, plant, body, scene_graph, scenario)
+    ignored = own_geometry(scene_graph, rig.own_frames)
+    vehicle = VEHICLES[scenario.vehicle]
+    touched = check_goal and goal_obstacle(
+        builder, scene_graph, scenario.goal, vehicle.collision_radius, ignored
+    )
+    if touched:
+        raise BuilderError(
+            f"goal = {scenario.goal}: the vehicle there (collision radius "
+            f"{vehicle.collision_radius} m) would touch the obstacle "
+            f"{touched[0]!r} (distance {touched[1]:.3f} m)"
+        )
+    rig.connect()  # nothing is added to builder before every check has passed
+    moving = scene_moves(builder, scene_graph, ignored)
+    sensor = add_sensor(
+        builder,
+        scenario.sensor,
+        scene_graph,
+        rig.state,
+        vehicle=scenario.vehicle,
+        other_vehicles=len(scenario.other_vehicles),
+        moving=moving,
+        ignore=ignored,
+        mount=rig.mount,
+    )
+    controller = add_controller(
+        builder,
+        scenario,
+        rig.state,
+        sensor,
+        rig.rotor_command,
+        method=method,
+        moving=moving,
+    )
+    logger = add_logger(builder, rig.state, sensor, controller)
+    return NavigationHandles(
+        sensor=sensor,
+        navigator=controller.navigator,
+        selector=controller.selector,
+        attitude_pd=controller.attitude_pd,
+        mixer=controller.mixer,
+        logger=logger,
+        state=rig.state,
+        estimate=controller.estimate,
+        rotor_command=rig.rotor_command,
+        vehicle=vehicle,
+        method=method.name,
+        plant=plant,
+        body=rig.body,
+        ignored=ignored,
+        place=rig.place,
+    )
+
+
+@dataclass
+class _Rig:
+    """How the chain meets a plant: its state and rotor ports (once
+    `connect` has added what they need), the frames of its own geometry,
+    where cameras ride and how it is placed at a start."""
+
+    own_frames: tuple
+    mount: CameraMount | None
+    place: Callable[[Context, np.ndarray], None]
+    body: RigidBody | None = None
+    state: OutputPort | None = None
+    rotor_command: InputPort | None = None
+    add_ports: Callable[[], tuple[OutputPort, InputPort]] | None = None
+
+    def connect(self) -> None:
+        if self.add_ports is not None:
+            self.state, self.rotor_command = self.add_ports()
+
+
+def _check_added(builder: DiagramBuilder, name: str, system, kind) -> None:
+    if not isinstance(system, kind):
+        raise BuilderError(
+            f"{name} = {type(system).__name__}: must be a {kind.__name__}"
+        )
+    if not any(s is system for s in builder.GetSystems()):
+        raise BuilderError(f"{name} = {system.get_name()!r}: is not in builder")
+
+
+def _vehicle(builder, plant, body, scene_graph, scenario: Scenario) -> _Rig:
+    if isinstance(plant, QuadrotorPlant):
+        _check_added(builder, "plant", plant, QuadrotorPlant)
+        if body is not None:
+            raise BuilderError(f"body = {body!r}: only a MultibodyPlant has bodies")
+        return _Rig(
+            state=plant.get_output_port(0),
+            rotor_command=plant.get_input_port(0),
+            own_frames=(),
+            mount=None,
+            place=lambda context, p: place_quadrotor(plant, context, p),
+        )
+    if isinstance(plant, MultibodyPlant):
+        _check_added(builder, "plant", plant, MultibodyPlant)
+        return _multibody_vehicle(builder, plant, body, scene_graph, scenario)
+    raise BuilderError(
+        f"plant = {type(plant).__name__}: must be a QuadrotorPlant or a MultibodyPlant"
+    )
+
+
+def place_quadrotor(plant: QuadrotorPlant, root_context: Context, position) -> None:
+    """Puts `plant`, a subsystem of the diagram of `root_context`, at
+    `position`, level and at rest."""
+    x0 = np.zeros(STATE_SIZE)
+    x0[POSITION] = position
+    plant.GetMyMutableContextFromRoot(root_context).SetContinuousState(x0)
+
+
+def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
+    """The MultibodyPlant vehicle: its `body`'s pose and velocity as
+    QuadrotorPlant's state, Drake's Propellers on it (`systems.multibody`)."""
+    if not plant.is_finalized():
+        raise BuilderError(
+            f"plant = {plant.get_name()!r}: a MultibodyPlant must be finalized "
+            "before add_navigation"
+        )
+    rigid = _floating_body(plant, body)
+    vehicle = VEHICLES[scenario.vehicle]
+    mass = rigid.default_mass()
+    if not math.isclose(mass, vehicle.mass, rel_tol=1e-9):
+        raise BuilderError(
+            f"vehicle = {scenario.vehicle!r}: its mass {vehicle.mass} kg is not "
+            f"body {rigid.name()!r}'s {mass} kg"
+        )
+    own, mount = (), None
+    if (
+        plant.geometry_source_is_registered()
+        and scene_graph.model_inspector().SourceIsRegistered(plant.get_source_id())
+    ):
+        frame = plant.GetBodyFrameIdOrThrow(rigid.index())
+        own = (frame,)
+        mount = CameraMount(frame, plant.get_geometry_pose_output_port())
+    elif not isinstance(scenario.sensor, SphereSensor):
+        raise BuilderError(
+            f"plant = {plant.get_name()!r}: cameras need the vehicle in "
+            "scene_graph (register the plant with it)"
+        )
+
+    def add_ports() -> tuple[OutputPort, InputPort]:
+        state = add_vehicle_state(builder, plant, rigid)
+        propeller = add_propellers(builder, plant, rigid, scenario.vehicle)
+        return state.GetOutputPort("state"), propeller.get_command_input_port()
+
+    def place(context: Context, position: np.ndarray) -> None:
+        place_vehicle(
+            plant, plant.GetMyMutableContextFromRoot(context), rigid, position
+        )
+
+    return _Rig(own, mount, place, body=rigid, add_ports=add_ports)
+
+
+def _floating_body(plant: MultibodyPlant, body) -> RigidBody:
+    if body is None:
+        raise BuilderError(
+            "body: missing; a MultibodyPlant vehicle needs body='NAME', its "
+            "floating body"
+        )
+    if isinstance(body, RigidBody):
+        rigid = body
+    elif not isinstance(body, str) or not plant.HasBodyNamed(body):
+        raise BuilderError(f"body = {body!r}: no body of that name in plant")
+    else:
+        try:
+            rigid = plant.GetBodyByName(body)
+        except RuntimeError:
+            raise BuilderError(
+                f"body = {body!r}: several model instances have one; pass the RigidBody"
+            ) from None
+    if not rigid.is_floating_base_body():
+        raise BuilderError(f"body = {rigid.name()!r}: is not a floating body")
+    return rigid
