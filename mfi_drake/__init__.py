@@ -20,7 +20,7 @@ _API = {
     "Scenario": "mfi_drake.config.scenario",
     "ScenarioError": "mfi_drake.config.scenario",
     "simulate": "mfi_drake.flight.simulation",
-    "Flight": "mfi_drake.flight.simulation",
+    "Flight": "mfi_drake.flight.result",
     "METHODS": "mfi_drake.flight.methods",
 }
 

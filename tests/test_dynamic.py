@@ -19,7 +19,8 @@ from mfi_drake.app.figures import plot_flights
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground, Motion, OtherVehicle, RelativeVelocity
 from mfi_drake.flight.diagram import build_diagram
-from mfi_drake.flight.simulation import outcome, simulate
+from mfi_drake.flight.result import outcome
+from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,

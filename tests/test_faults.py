@@ -19,7 +19,8 @@ from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Scenario, ScenarioError, read_faults
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import build_diagram
-from mfi_drake.flight.simulation import fly, simulate
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.flight.simulator import fly
 from mfi_drake.maths.faults import corrupt_reading, sample_rng
 from mfi_drake.studies.sweep import (
     SweepConfig,

@@ -19,7 +19,8 @@ from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion, OtherVehicle
 from mfi_drake.config.scenario import scenario_to_yaml
 from mfi_drake.flight.diagram import vehicle_scenarios
-from mfi_drake.flight.simulation import least_separation, simulate
+from mfi_drake.flight.result import least_separation
+from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import obstacle_signal, readings
 from mfi_drake.maths.motion import turned_right
 from mfi_drake.studies import fleet_sweep, sweep

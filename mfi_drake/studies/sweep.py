@@ -19,7 +19,7 @@ already there. A flight whose worker dies is flown again on another (the
 Dask scheduler reschedules it) and recorded once, when it finishes.
 
 A flight of a static scene with the sphere sensor and no faults ends once
-its vehicle has settled at the goal (`simulation.settles`,
+its vehicle has settled at the goal (`monitors.settles`,
 `settled_monitor`): the rest would be a hover, and its metrics differ from
 the whole duration's by the integrator's accuracy (sim_time and steps are
 those flown).
@@ -72,8 +72,9 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.fleet import check_one_integrator
 from mfi_drake.flight.methods import METHODS, MethodError, import_field, resolve_method
-from mfi_drake.flight.simulation import OUTCOMES as FLIGHT_OUTCOMES
-from mfi_drake.flight.simulation import outcome, simulate
+from mfi_drake.flight.result import OUTCOMES as FLIGHT_OUTCOMES
+from mfi_drake.flight.result import outcome
+from mfi_drake.flight.simulation import simulate
 from mfi_drake.world import generator
 from mfi_drake.world.reference_path import Clearance, reference_path
 from mfi_drake.world.validation import validate_scenario
@@ -156,7 +157,7 @@ def field_reference(scenario_yaml: str) -> dict:
 
 
 # How a sweep (and `tune`) flies a field: ended once its outcome is known,
-# settled at the goal or in contact (`simulation.fly`).
+# settled at the goal or in contact (`simulator.fly`).
 SWEEP_ENDS = {"until_settled": True, "stop_at_contact": True}
 
 
