@@ -73,15 +73,15 @@ from mfi_drake.files import write_section
 from mfi_drake.flight.diagram import build_diagram, make_plant
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.flight.simulator import fly, run_timed, simulator_at_start
+from mfi_drake.studies.cluster import dask_client
 from mfi_drake.studies.sweep import (
     SWEEP_ENDS,
     SweepConfig,
-    dask_client,
     field_reference,
     run_sweep,
     task_scenario,
-    with_overrides,
 )
+from mfi_drake.studies.variants import with_overrides
 from mfi_drake.systems.last_result import LastResult
 from mfi_drake.world import generator
 from mfi_drake.world.validation import load_scenario

@@ -34,13 +34,9 @@ from mfi_drake.maths.motion import (
     keep_own_pace,
     match_points,
 )
-from mfi_drake.studies.sweep import (
-    SweepConfig,
-    motion_variant,
-    read_results,
-    run_sweep,
-    with_overrides,
-)
+from mfi_drake.studies.records import read_results
+from mfi_drake.studies.sweep import SweepConfig, run_sweep
+from mfi_drake.studies.variants import motion_variant, with_overrides
 from mfi_drake.systems.navigation import MfiNavigator
 from mfi_drake.systems.relative import ObstacleVelocityEstimator, relative_navigator
 from mfi_drake.world.generator import random_field, set_in_motion

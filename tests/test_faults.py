@@ -22,13 +22,9 @@ from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.flight.simulator import fly
 from mfi_drake.maths.faults import corrupt_reading, sample_rng
-from mfi_drake.studies.sweep import (
-    SweepConfig,
-    fault_variant,
-    read_results,
-    run_sweep,
-    with_faults,
-)
+from mfi_drake.studies.records import read_results
+from mfi_drake.studies.sweep import SweepConfig, run_sweep
+from mfi_drake.studies.variants import fault_variant, with_faults
 from mfi_drake.systems.faults import MotorLag, SensorFaults, StateEstimateError
 from mfi_drake.world.validation import load_scenario
 

@@ -24,6 +24,7 @@ from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import obstacle_signal, readings
 from mfi_drake.maths.motion import turned_right
 from mfi_drake.studies import fleet_sweep, sweep
+from mfi_drake.studies.records import read_results
 from mfi_drake.systems.exchange import extrapolated, merge, message
 from mfi_drake.systems.navigation import MfiNavigator
 from mfi_drake.systems.relative import RelativeNavigator
@@ -416,7 +417,7 @@ def test_fleet_sweep_records_every_vehicle(tmp_path, threads_client):
         config, threads_client, _short, sys.stdout, tasks=fleet_sweep.FLEET
     )
     assert (run.ran, run.lost) == (2, [])
-    records = sweep.read_results(str(tmp_path / "results.jsonl"))
+    records = read_results(str(tmp_path / "results.jsonl"))
     for r in records:
         assert r["vehicles"] == 3 and len(r["path_ratios"]) == 3
         assert r["outcome"] == "timeout" and r["deadlocks"] == 3  # 1 s of 10 m

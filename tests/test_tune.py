@@ -15,7 +15,7 @@ from mfi_drake.config import scenario as sc
 from mfi_drake.config.parameters import GfParams, NavigatorParams
 from mfi_drake.flight.methods import METHODS, Gain
 from mfi_drake.studies.compare import PAPER_SCENARIOS
-from mfi_drake.studies.sweep import read_results
+from mfi_drake.studies.records import read_results
 from mfi_drake.studies.tune import (
     TuneConfig,
     TuneError,

@@ -340,7 +340,7 @@ def cmd_scene(default_of: Callable[[str], object], args) -> int:
 
 
 def _need_dask() -> None:
-    from mfi_drake.studies.sweep import ClusterError, require_dask
+    from mfi_drake.studies.cluster import ClusterError, require_dask
 
     try:
         require_dask()
@@ -352,16 +352,14 @@ def cmd_sweep(args) -> int:
     _need_dask()
     from mfi_drake.app.figures import plot_fleet_sweep, plot_sweep
     from mfi_drake.flight.fleet import check_one_integrator
+    from mfi_drake.studies.cluster import ClusterError, dask_client
     from mfi_drake.studies.fleet_sweep import FLEET, fleet_table, fleet_variant
-    from mfi_drake.studies.sweep import (
-        ClusterError,
-        dask_client,
-        field_to_fly,
+    from mfi_drake.studies.stats import summary_table
+    from mfi_drake.studies.sweep import field_to_fly, run_sweep
+    from mfi_drake.studies.variants import (
         goal_variant,
         layered,
         motion_variant,
-        run_sweep,
-        summary_table,
         variant_name,
     )
 
@@ -472,16 +470,11 @@ def _check_motion_numbers(args) -> None:
 def cmd_tune(args) -> int:
     _need_dask()
     from mfi_drake.app.figures import plot_sweep
-    from mfi_drake.studies.sweep import (
-        ClusterError,
-        SweepConfig,
-        dask_client,
-        override_variant,
-        run_sweep,
-        summary_table,
-        with_overrides,
-    )
+    from mfi_drake.studies.cluster import ClusterError, dask_client
+    from mfi_drake.studies.stats import summary_table
+    from mfi_drake.studies.sweep import SweepConfig, run_sweep
     from mfi_drake.studies.tune import TuneConfig, TuneError, tune
+    from mfi_drake.studies.variants import override_variant, with_overrides
 
     methods = parse_methods(args.methods)
     _check_sweep_numbers(args)

@@ -28,17 +28,14 @@ from mfi_drake.config.scenario import Scenario
 from mfi_drake.flight.diagram import vehicle_scenarios
 from mfi_drake.flight.result import outcome
 from mfi_drake.flight.simulation import simulate
+from mfi_drake.studies.records import OUTCOMES, record_key
+from mfi_drake.studies.stats import median_interval, rate_cell, wilson_interval
 from mfi_drake.studies.sweep import (
-    OUTCOMES,
     SWEEP_ENDS,
     SweepConfig,
     Tasks,
     make_field,
-    median_interval,
-    rate_cell,
-    record_key,
     task_scenario,
-    wilson_interval,
 )
 from mfi_drake.world.fleets import random_pairs
 from mfi_drake.world.reference_path import reference_path

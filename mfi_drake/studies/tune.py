@@ -31,7 +31,7 @@ The protocol, the same for every method and fixed before any result is seen:
 5. Held-out evaluation: the winners flown on fields of a seed that is not a
    training seed (refused otherwise), through the sweep.
 
-Flights run on Dask like the sweep (`sweep.run_tasks`, on a local or a
+Flights run on Dask like the sweep (`cluster.run_tasks`, on a local or a
 remote cluster; every field self-contained, the paper's scenarios with
 their meshes inline) and are appended to DIR/tune.jsonl as they finish; a
 rerun with the same arguments flies only what is missing (the candidates
@@ -52,19 +52,11 @@ import numpy as np
 from mfi_drake.config.scenario import Scenario, scenario_to_yaml
 from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.methods import Gain, Method, resolve_method
+from mfi_drake.studies.cluster import ClusterError, Task, run_tasks
 from mfi_drake.studies.compare import PAPER_SCENARIOS
-from mfi_drake.studies.sweep import (
-    ClusterError,
-    SweepConfig,
-    Task,
-    append_record,
-    field_reference,
-    fly_field,
-    make_field,
-    read_results,
-    run_tasks,
-    with_overrides,
-)
+from mfi_drake.studies.records import append_record, read_results
+from mfi_drake.studies.sweep import SweepConfig, field_reference, fly_field, make_field
+from mfi_drake.studies.variants import with_overrides
 from mfi_drake.world.generator import self_contained, set_in_motion, wall_field
 from mfi_drake.world.validation import load_scenario
 
@@ -388,7 +380,7 @@ def _evaluate(client, method, batch, fields, texts, references, done, record):
 
 
 def _run(client, tasks, on_result, methods) -> None:
-    """`sweep.run_tasks`; a lost task stops the tuning (a rerun resumes)."""
+    """`cluster.run_tasks`; a lost task stops the tuning (a rerun resumes)."""
     lost = run_tasks(client, tasks, on_result, methods)
     if lost:
         raise ClusterError(
