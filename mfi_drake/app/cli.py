@@ -472,9 +472,7 @@ def cmd_tune(args) -> int:
     from mfi_drake.app.figures import plot_sweep
     from mfi_drake.studies.cluster import ClusterError, dask_client
     from mfi_drake.studies.stats import summary_table
-    from mfi_drake.studies.sweep import SweepConfig, run_sweep
-    from mfi_drake.studies.tune import TuneConfig, TuneError, tune
-    from mfi_drake.studies.variants import override_variant, with_overrides
+    from mfi_drake.studies.tune import TuneConfig, TuneError, held_out_sweep, tune
 
     methods = parse_methods(args.methods)
     _check_sweep_numbers(args)
@@ -508,25 +506,16 @@ def cmd_tune(args) -> int:
     try:
         with dask_client(args.workers, args.scheduler, methods) as client:
             tune(config, client)
-            tuned = read_override(os.path.join(args.out, "tuned.yaml"))
             print(f"wrote {args.out}/tuned.yaml, tuning.md, tuning.json, tune.jsonl")
             if args.held_out_seed is None:
                 return 0
-            held_out = SweepConfig(
-                n=args.held_out_n,
-                seed=args.held_out_seed,
-                methods=methods,
-                densities=list(dict.fromkeys(args.held_out_density)),
-                out=os.path.join(args.out, "held_out"),
-                variant=override_variant([tuned]),
-            )
-            modify = partial(with_overrides, overrides=[tuned])
-            run = run_sweep(held_out, client, modify)
+            run = held_out_sweep(config, client, args.held_out_n, args.held_out_density)
     except (TuneError, ClusterError) as e:
         raise UsageError(str(e)) from None
-    plot_sweep(run.summary, os.path.join(held_out.out, "sweep.png"))
+    held_out = os.path.join(args.out, "held_out")
+    plot_sweep(run.summary, os.path.join(held_out, "sweep.png"))
     print(summary_table(run.summary))
-    print(f"wrote {held_out.out}/ (held-out fields, seed {args.held_out_seed})")
+    print(f"wrote {held_out}/ (held-out fields, seed {args.held_out_seed})")
     return 1 if run.lost else 0
 
 
