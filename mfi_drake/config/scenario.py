@@ -13,6 +13,7 @@ and the value.
 """
 
 import dataclasses
+import functools
 import math
 import os
 import types
@@ -594,13 +595,26 @@ def parse_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> Scenario
     return scenario
 
 
+@functools.cache
+def _file_schema() -> type:
+    """Scenario's fields as a YAML file holds them: all but base_dir, which
+    says where a file was read from (the loader sets it, and refuses it in
+    a file)."""
+    kept = [f for f in dataclasses.fields(Scenario) if f.name != "base_dir"]
+    return dataclasses.make_dataclass("Scenario", [(f.name, f.type) for f in kept])
+
+
 def scenario_to_yaml(scenario: Scenario) -> str:
-    """The whole scenario, base_dir and every default included (a worker's
-    defaults need not be the client's), as YAML text: what travels to a
-    sweep worker (Drake's SimulatorConfig does not pickle)."""
-    return yaml_dump_typed(scenario)
+    """The whole scenario, every default included (a worker's defaults need
+    not be the client's), as YAML text that `load_scenario` reads back:
+    what travels to a sweep worker (Drake's SimulatorConfig does not
+    pickle). Not base_dir: a receiver resolving relative mesh files is
+    given it apart (`scenario_from_yaml`)."""
+    return yaml_dump_typed(scenario, schema=_file_schema())
 
 
-def scenario_from_yaml(text: str) -> Scenario:
-    """The inverse of `scenario_to_yaml` (trusted text: not validated)."""
-    return yaml_load_typed(schema=Scenario, data=text, defaults=Scenario())
+def scenario_from_yaml(text: str, base_dir: str = "") -> Scenario:
+    """The inverse of `scenario_to_yaml` (trusted text: not validated), its
+    relative mesh files resolved against `base_dir`."""
+    defaults = Scenario(base_dir=base_dir)
+    return yaml_load_typed(schema=Scenario, data=text, defaults=defaults)

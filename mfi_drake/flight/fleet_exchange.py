@@ -101,13 +101,14 @@ class FleetGroup:
 
 def serve_group(fd: int) -> None:
     """A fleet process's loop (`RemoteGroup`), on the socket `fd`: receives
-    its FleetGroup's arguments (the scenario as YAML: Drake's
-    SimulatorConfig does not pickle), then answers ("step", t, states,
+    its FleetGroup's arguments (the scenario as YAML, Drake's
+    SimulatorConfig does not pickle, and its base_dir), then answers ("step", t, states,
     until) and ("flights", wall_time)."""
     connection = Connection(fd)
     try:
-        scenario_yaml, *group_arguments = connection.recv()
-        group = FleetGroup(scenario_from_yaml(scenario_yaml), *group_arguments)
+        scenario_yaml, base_dir, *group_arguments = connection.recv()
+        scenario = scenario_from_yaml(scenario_yaml, base_dir)
+        group = FleetGroup(scenario, *group_arguments)
         connection.send(("ok", group.states()))
         while True:
             request = connection.recv()
@@ -144,7 +145,7 @@ class RemoteGroup:
         )
         theirs.close()
         self._connection = Connection(ours.detach())
-        self.send(scenario_to_yaml(scenario), *group_arguments)
+        self.send(scenario_to_yaml(scenario), scenario.base_dir, *group_arguments)
 
     def send(self, *request) -> None:
         self._connection.send(request)
