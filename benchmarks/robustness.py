@@ -27,7 +27,7 @@ import argparse
 import os
 from functools import partial
 
-from mfi_drake.app.cli import add_overrides, overrides
+from mfi_drake.app.arguments import add_overrides, overrides
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import ScenarioError
 from mfi_drake.files import write_json, write_text

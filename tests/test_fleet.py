@@ -12,8 +12,9 @@ from pydrake.geometry import GeometryInstance, RenderLabel, Rgba, SceneGraph
 from pydrake.geometry import Sphere as DrakeSphere
 from pydrake.math import RigidTransform
 
-from mfi_drake.app.cli import main, summary_line
+from mfi_drake.app.cli import main
 from mfi_drake.app.figures import plot_fleet_sweep
+from mfi_drake.app.flight_commands import summary_line
 from mfi_drake.app.flight_log import write_flight_log
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion, OtherVehicle
