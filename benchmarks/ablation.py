@@ -25,7 +25,7 @@ from functools import partial
 import numpy as np
 
 from mfi_drake.config.parameters import REPAIRS, NavigatorParams, paper_form
-from mfi_drake.config.scenario import read_override
+from mfi_drake.config.scenario_yaml import read_override
 from mfi_drake.files import write_json, write_text
 from mfi_drake.studies.cluster import dask_client
 from mfi_drake.studies.records import read_results, record_key

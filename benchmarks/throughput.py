@@ -62,12 +62,8 @@ from pydrake.examples import StabilizingLQRController
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from mfi_drake.config.scenario import (
-    Scenario,
-    ScenarioError,
-    read_override,
-    scenario_to_yaml,
-)
+from mfi_drake.config.scenario import Scenario, ScenarioError
+from mfi_drake.config.scenario_yaml import read_override, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_section
 from mfi_drake.flight.diagram import build_diagram, make_plant

@@ -16,7 +16,8 @@ from pydrake.systems.primitives import ConstantVectorSource, Integrator, Multipl
 
 from mfi_drake.app.cli import main
 from mfi_drake.config.faults import Faults
-from mfi_drake.config.scenario import Scenario, ScenarioError, read_faults
+from mfi_drake.config.scenario import Scenario, ScenarioError
+from mfi_drake.config.scenario_yaml import read_faults
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import simulate

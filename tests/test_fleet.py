@@ -18,7 +18,7 @@ from mfi_drake.app.flight_commands import summary_line
 from mfi_drake.app.flight_log import write_flight_log
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion, OtherVehicle
-from mfi_drake.config.scenario import scenario_to_yaml
+from mfi_drake.config.scenario_yaml import scenario_to_yaml
 from mfi_drake.flight.diagram import vehicle_scenarios
 from mfi_drake.flight.result import least_separation
 from mfi_drake.flight.simulation import simulate

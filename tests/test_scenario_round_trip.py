@@ -14,7 +14,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pydrake.systems.analysis import SimulatorConfig
 
-from mfi_drake.config.scenario import Scenario, scenario_from_yaml, scenario_to_yaml
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
 from mfi_drake.world import fleets, generator, goal_scenes
 from mfi_drake.world.validation import least_goal_gap, load_scenario
 

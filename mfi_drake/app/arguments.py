@@ -8,7 +8,7 @@ import math
 import os
 import textwrap
 
-from mfi_drake.config.scenario import read_override
+from mfi_drake.config.scenario_yaml import read_override
 from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
 from mfi_drake.world.validation import least_goal_gap, load_scenario
 

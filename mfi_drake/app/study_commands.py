@@ -28,7 +28,7 @@ from mfi_drake.app.arguments import (
     overrides,
     parse_methods,
 )
-from mfi_drake.config.scenario import layered_name, read_faults
+from mfi_drake.config.scenario_yaml import layered_name, read_faults
 from mfi_drake.flight.methods import METHODS
 from mfi_drake.world.validation import validate_scenario
 

@@ -15,7 +15,8 @@ from multiprocessing.connection import Connection
 
 import numpy as np
 
-from mfi_drake.config.scenario import Scenario, scenario_from_yaml, scenario_to_yaml
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
 from mfi_drake.flight.diagram import build_diagram, vehicle_scenarios
 from mfi_drake.flight.methods import Method
 from mfi_drake.flight.monitors import RESTING, centre_gap, settled_monitor, settles

@@ -53,7 +53,8 @@ from functools import partial
 
 import numpy as np
 
-from mfi_drake.config.scenario import Scenario, read_override, scenario_to_yaml
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.scenario_yaml import read_override, scenario_to_yaml
 from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.methods import Gain, Method, resolve_method
 from mfi_drake.studies.cluster import ClusterError, Task, run_tasks

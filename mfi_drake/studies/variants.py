@@ -8,7 +8,8 @@ import zlib
 from dataclasses import fields, replace
 
 from mfi_drake.config.faults import Faults
-from mfi_drake.config.scenario import Scenario, layer
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.scenario_yaml import layer
 
 
 def goal_variant(gap: float | None) -> str:
