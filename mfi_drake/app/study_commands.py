@@ -377,7 +377,12 @@ def add_scene(sub) -> None:
 
 def add_tune(sub) -> None:
     """The `tune` command's parser, added to the subparsers `sub`."""
-    from mfi_drake.studies.tune import JITTER_AXES, MIN_CANDIDATES
+    from mfi_drake.studies.tune import (
+        HELD_OUT_DENSITIES,
+        HELD_OUT_N,
+        JITTER_AXES,
+        MIN_CANDIDATES,
+    )
 
     tune = add_parser(
         sub,
@@ -447,7 +452,7 @@ def add_tune(sub) -> None:
         "--held-out-n",
         metavar="N",
         type=int,
-        default=200,
+        default=HELD_OUT_N,
         help="held-out fields per density, ≥ 1",
     )
     tune.add_argument(
@@ -455,7 +460,7 @@ def add_tune(sub) -> None:
         metavar="D",
         type=float,
         nargs="+",
-        default=[0.05, 0.1, 0.2],
+        default=list(HELD_OUT_DENSITIES),
         help="held-out densities, obstacles per m³, each ≥ 0",
     )
     add_workers(tune)

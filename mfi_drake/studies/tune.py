@@ -77,6 +77,9 @@ JITTER_STEP = 1e-3  # [m] how far a jittered copy of a field starts from its own
 JITTER_AXES = ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))
 # Fewest candidates per method: the current gains and two Latin-hypercube points.
 MIN_CANDIDATES = 3
+# The held-out sweep's fields per density, and its densities (step 5).
+HELD_OUT_N = 200
+HELD_OUT_DENSITIES = (0.05, 0.1, 0.2)
 
 
 class TuneError(ValueError):
@@ -312,8 +315,8 @@ def tune(
 def held_out_sweep(
     config: TuneConfig,
     client,
-    n: int = 200,
-    densities: Sequence[float] = (0.05, 0.1, 0.2),
+    n: int = HELD_OUT_N,
+    densities: Sequence[float] = HELD_OUT_DENSITIES,
     progress_stream=sys.stderr,
 ) -> SweepRun:
     """Step 5 of the protocol: the winners of DIR/tuned.yaml (written by
@@ -341,8 +344,8 @@ def held_out_sweep(
 def tune_held_out(
     config: TuneConfig,
     client,
-    n: int = 200,
-    densities: Sequence[float] = (0.05, 0.1, 0.2),
+    n: int = HELD_OUT_N,
+    densities: Sequence[float] = HELD_OUT_DENSITIES,
     progress_stream=sys.stderr,
 ) -> tuple[dict[str, Candidate], SweepRun | None]:
     """The whole protocol (the module docstring) on the Dask `client`:
