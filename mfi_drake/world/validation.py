@@ -16,6 +16,7 @@ import numpy as np
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
+from mfi_drake.config.scenario_yaml import layered_name, parse_scenario
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.shapes import convex_points, mesh_file
@@ -175,8 +176,8 @@ def _check_apart(where: str, scenario: sc.Scenario, radius: float) -> None:
 
 def load_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> sc.Scenario:
     """Loads scenario file `path`, layers `overrides` on it ((where, YAML
-    text) pairs, see `config.scenario.parse_scenario`) and validates the
+    text) pairs, see `config.scenario_yaml.parse_scenario`) and validates the
     result; raises ScenarioError if it cannot be flown."""
-    scenario = sc.parse_scenario(path, overrides)
-    validate_scenario(scenario, sc.layered_name(path, overrides))
+    scenario = parse_scenario(path, overrides)
+    validate_scenario(scenario, layered_name(path, overrides))
     return scenario
