@@ -99,6 +99,9 @@ class Obstacle:
     position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # m
     rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # deg
     motion: Motion | None = None  # none: static (docs/dynamic.md)
+    # What errors call it ("" : "an obstacle"); a world file's obstacles are
+    # named "world 'yard.sdf' model 'wall' geometry 'collision'".
+    name: str = ""
 
 
 # --- sensors ------------------------------------------------------------------
@@ -202,6 +205,10 @@ class Scenario:
     vehicle: str = "drake_default"
     sensor: Sensor = field(default_factory=SphereSensor)
     obstacles: list[Obstacle] = field(default_factory=list)
+    # An SDFormat (.sdf) or URDF (.urdf) file, relative to the YAML file, whose
+    # static models' collision geometries are obstacles too: loading appends
+    # them to `obstacles` and empties this (docs/usage.md, "Worlds").
+    world: str = ""
     ground: Ground | None = None  # none: no ground
     # Further vehicles flown at once (docs/dynamic.md).
     other_vehicles: list[OtherVehicle] = field(default_factory=list)

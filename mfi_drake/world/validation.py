@@ -17,8 +17,9 @@ import numpy as np
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
 from mfi_drake.config.vehicles import VEHICLES
-from mfi_drake.world.obstacles import obstacle_distances
+from mfi_drake.world.obstacles import closest_obstacles, obstacle_distances
 from mfi_drake.world.shapes import convex_points, mesh_file
+from mfi_drake.world.world_files import with_world
 
 # [m] a goal's least room beyond the vehicle's collision radius: every
 # method's terminal approach (docs/goals.md) settles at a goal with at least
@@ -79,25 +80,29 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
     )
     try:
         # Starts against every obstacle at t = 0, goals against the static ones.
-        distances = obstacle_distances(scenario, [p for n, p in ends if "start" in n])
-        distances += obstacle_distances(static, [p for n, p in ends if "goal" in n])
+        closest = closest_obstacles(scenario, [p for n, p in ends if "start" in n])
+        closest += closest_obstacles(static, [p for n, p in ends if "goal" in n])
     except RuntimeError as e:  # a mesh Drake cannot use
         raise sc.ScenarioError(f"{where}: obstacles: {str(e).splitlines()[0]}") from e
     ordered = [e for e in ends if "start" in e[0]] + [e for e in ends if "goal" in e[0]]
-    for (name, point), d in zip(ordered, distances, strict=True):
+    for (name, point), (d, obstacle) in zip(ordered, closest, strict=True):
         needed, words = _room(name, radius, d)
         if d < needed - ROUNDING:
-            sc.fail(
-                where,
-                name,
-                point,
-                f"is {d:.3f} m from an obstacle, closer than {words}",
-            )
+            sc.fail(where, name, point, _near(d, obstacle, words))
     if len(static.obstacles) < len(scenario.obstacles):
         for name, point in ends:
             if "goal" in name:
                 _check_goal_uncovered(where, scenario, name, point, radius)
     _check_apart(where, scenario, radius)
+
+
+def _near(distance: float, obstacle: sc.Obstacle | None, words: str) -> str:
+    """Why an end at `distance` from `obstacle` is refused: inside or near
+    it by its name, if it has one."""
+    what = obstacle.name if obstacle is not None and obstacle.name else ""
+    if what and distance < 0.0:
+        return f"is inside {what} ({-distance:.3f} m deep)"
+    return f"is {distance:.3f} m from {what or 'an obstacle'}, closer than {words}"
 
 
 def _room(name: str, radius: float, distance: float) -> tuple[float, str]:
@@ -176,7 +181,9 @@ def _check_apart(where: str, scenario: sc.Scenario, radius: float) -> None:
 def load_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> sc.Scenario:
     """Loads scenario file `path`, layers `overrides` on it ((where, YAML
     text) pairs, see `config.scenario.parse_scenario`) and validates the
-    result; raises ScenarioError if it cannot be flown."""
-    scenario = sc.parse_scenario(path, overrides)
-    validate_scenario(scenario, sc.layered_name(path, overrides))
+    result, its `world:` resolved into obstacles; raises ScenarioError if it
+    cannot be flown."""
+    where = sc.layered_name(path, overrides)
+    scenario = with_world(sc.parse_scenario(path, overrides), where)
+    validate_scenario(scenario, where)
     return scenario
