@@ -12,7 +12,9 @@ from mfi_drake.app.cli import main
 from mfi_drake.config import scenario as sc
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.world.generator import self_contained
+from mfi_drake.world.meshes import enclosed_volume
 from mfi_drake.world.obstacles import obstacle_distances
+from mfi_drake.world.shapes import shape_mesh
 from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
@@ -190,12 +192,17 @@ def test_a_urdf_welded_to_the_world_is_a_world(tmp_path):
 
 
 def test_a_convex_mesh_of_a_world_is_its_hull_inline(tmp_path):
-    """A mesh geometry scaled by 2: its hull's vertices inline, scaled, so
-    it reads no file once loaded; the canopy's distances are the file's."""
+    """A mesh geometry declared convex, scaled by 0.5: its hull's vertices
+    inline, scaled, so it reads no file once loaded; the canopy's distances
+    are the file's."""
     canopy = os.path.join(SCENARIOS, "meshes", "canopy.obj")
     sdf = SDF.replace(
+        'version="1.9"', 'version="1.9" xmlns:drake="http://drake.mit.edu"'
+    )
+    sdf = sdf.replace(
         "<sphere><radius>0.5</radius></sphere>",
-        f"<mesh><uri>{canopy}</uri><scale>0.5 0.5 0.5</scale></mesh>",
+        f"<mesh><uri>{canopy}</uri><scale>0.5 0.5 0.5</scale>"
+        "<drake:declare_convex/></mesh>",
     )
     scenario = load_scenario(_world(tmp_path, sdf))
     mesh = scenario.obstacles[1]
@@ -247,19 +254,20 @@ def test_a_bad_world_is_one_line_and_exit_2(
 
 
 def test_the_shipped_yard_flies_its_world():
-    """scenarios/yard.yaml: its world's six geometries after its own box,
-    and a flight among them that reaches the goal without contact."""
+    """scenarios/yard.yaml: its world's geometries after its own box (the
+    hut's mesh as its convex pieces, which hold its volume), and a flight
+    among them that reaches the goal without contact."""
     scenario = load_scenario(os.path.join(SCENARIOS, "yard.yaml"))
     kinds = [type(o.shape).__name__ for o in scenario.obstacles]
-    assert kinds == [
-        "Box",
-        "Box",
-        "Cylinder",
-        "Convex",
+    hut = [o for o in scenario.obstacles if "model 'hut'" in o.name]
+    assert len(hut) > 1
+    assert kinds == ["Box", "Box", "Cylinder", "Convex"] + ["Convex"] * len(hut) + [
         "Sphere",
         "Capsule",
         "Ellipsoid",
     ]
+    volume = sum(enclosed_volume(*shape_mesh(scenario, o.shape)) for o in hut)
+    assert volume == pytest.approx(4 * 4 * 3 - 3 * 3 * 2.5 - 0.5 * 1 * 2, rel=0.02)
     flight = simulate(scenario, until_settled=True)
     assert flight.metrics["success"]
     assert 0.0 < flight.metrics["min_clearance"] < 1.0

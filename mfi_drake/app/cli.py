@@ -10,12 +10,14 @@ with their outputs written all the same; each command's --help (built with
 """
 
 import argparse
+import functools
 import json
 import math
 import os
 import subprocess
 import sys
 import textwrap
+import warnings
 from collections.abc import Callable
 from functools import partial
 
@@ -28,6 +30,7 @@ from mfi_drake.config.scenario import (
 from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
 from mfi_drake.systems.navigation import UserFieldError
 from mfi_drake.world.validation import (
+    ScenarioWarning,
     least_goal_gap,
     load_scenario,
     validate_scenario,
@@ -1089,6 +1092,28 @@ def _check_outputs(args) -> None:
         writable("--html", args.html, directory=False)
 
 
+def _one_line_warnings(command: Callable[..., int]) -> Callable[..., int]:
+    """`command` showing a scenario's warnings as the one line the user
+    reads (others as before)."""
+
+    @functools.wraps(command)
+    def wrapped(*args, **kwargs) -> int:
+        with warnings.catch_warnings():
+            shown = warnings.showwarning
+
+            def show(message, category, *more, **options) -> None:
+                if issubclass(category, ScenarioWarning):
+                    print(f"mfi-drake: warning: {message}", file=sys.stderr)
+                else:
+                    shown(message, category, *more, **options)
+
+            warnings.showwarning = show
+            return command(*args, **kwargs)
+
+    return wrapped
+
+
+@_one_line_warnings
 def main(argv: list[str] | None = None) -> int:
     args = make_parser().parse_args(argv)
     try:

@@ -90,7 +90,16 @@ class Convex:
     vertices: list[list[float]] = field(default_factory=list)  # m, in its frame
 
 
-Shape = Box | Sphere | Cylinder | Capsule | Ellipsoid | Convex
+@dataclass
+class Mesh:
+    """A closed mesh of any shape, flown as the convex pieces it decomposes
+    into (`world.decomposition`; loading replaces it by them)."""
+
+    file: str = ""  # Wavefront OBJ; a relative path is relative to the YAML file
+    scale: float = 1.0
+
+
+Shape = Box | Sphere | Cylinder | Capsule | Ellipsoid | Convex | Mesh
 
 
 @dataclass
@@ -336,6 +345,8 @@ def _check_shape(where: str, shape) -> None:
         fail(where, "shape", shape, "unknown shape")
     if isinstance(shape, Convex):
         _check_convex(where, shape)
+    if isinstance(shape, Mesh) and not shape.file:
+        fail(where, "shape.file", shape.file, "must name an OBJ file")
     for f in dataclasses.fields(shape):
         value = getattr(shape, f.name)
         if f.name == "vertices":

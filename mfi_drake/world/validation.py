@@ -17,9 +17,10 @@ import numpy as np
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.world.meshes import enclosed_volume, read_obj
 from mfi_drake.world.obstacles import closest_obstacles, obstacle_distances
-from mfi_drake.world.shapes import convex_points, mesh_file
-from mfi_drake.world.world_files import with_world
+from mfi_drake.world.shapes import convex_points, mesh_file, shape_mesh
+from mfi_drake.world.world_files import with_files
 
 # [m] a goal's least room beyond the vehicle's collision radius: every
 # method's terminal approach (docs/goals.md) settles at a goal with at least
@@ -58,6 +59,28 @@ def _check_mesh(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
     centred = vertices - vertices.mean(axis=0)
     if len(vertices) < 4 or np.linalg.matrix_rank(centred, tol=1e-9) < 3:
         sc.fail(where, name, value, "needs 4+ non-coplanar vertices")
+    if shape.file:
+        _warn_if_not_convex(where, scenario, shape)
+
+
+# A mesh whose hull holds this much more than the mesh itself is not convex.
+NOT_CONVEX = 1.05
+
+
+def _warn_if_not_convex(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
+    """A `!Convex` file that is not convex flies its hull, filling its
+    notches: a ScenarioWarning, one line, says so and how to fly it."""
+    vertices, triangles = read_obj(sc.mesh_path(scenario, shape))
+    volume = enclosed_volume(vertices, triangles)
+    hull = enclosed_volume(*shape_mesh(scenario, sc.Convex(vertices=vertices.tolist())))
+    if volume > 0.0 and hull > NOT_CONVEX * volume:
+        warnings.warn(
+            f"{where}: shape.file = {shape.file!r}: not convex (its hull holds "
+            f"{hull / volume:.2f} times its volume), so !Convex flies the hull; "
+            f"!Mesh {{file: {shape.file}}} flies its shape",
+            ScenarioWarning,
+            stacklevel=2,
+        )
 
 
 def validate_scenario(scenario: sc.Scenario, where: str) -> None:
@@ -184,6 +207,6 @@ def load_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> sc.Scenar
     result, its `world:` resolved into obstacles; raises ScenarioError if it
     cannot be flown."""
     where = sc.layered_name(path, overrides)
-    scenario = with_world(sc.parse_scenario(path, overrides), where)
+    scenario = with_files(sc.parse_scenario(path, overrides), where)
     validate_scenario(scenario, where)
     return scenario

@@ -2,8 +2,9 @@
 
 An SDFormat (.sdf) or URDF (.urdf) file is parsed with Drake's own `Parser`
 into a throwaway MultibodyPlant and SceneGraph; every proximity (collision)
-geometry of its static models becomes one of the scenario's own obstacles,
-at its pose in the world and named after its model and geometry. Loading
+geometry of its static models becomes one of the scenario's own obstacles
+(a mesh: its convex pieces, `decomposition`), at its pose in the world and
+named after its model and geometry. Loading
 appends them to `obstacles` and empties `world`, so the scenario that
 travels (as YAML, to a sweep's workers) carries the obstacles, not the path,
 and everything that reads `obstacles` reads the world too.
@@ -27,6 +28,7 @@ from pydrake.math import RollPitchYaw
 from pydrake.systems.framework import DiagramBuilder
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.world.decomposition import mesh_obstacles, with_meshes
 
 WORLD_SUFFIXES = (".sdf", ".urdf")
 # Decimals of a degree that a pose's roll, pitch and yaw are read to: the
@@ -37,15 +39,15 @@ WORLD_SUFFIXES = (".sdf", ".urdf")
 RPY_DECIMALS = 12
 
 
-def _hull(shape: Convex | Mesh) -> sc.Convex:
-    """A mesh's convex hull, scaled, its vertices inline: it reads no file
-    once loaded, so it flies on a worker that cannot see the mesh."""
+def _hull(shape: Convex) -> sc.Convex:
+    """A convex geometry's hull, scaled, its vertices inline: it reads no
+    file once loaded, so it flies on a worker that cannot see the mesh."""
     hull = shape.GetConvexHull()
     vertices = [[float(x) for x in hull.vertex(i)] for i in range(hull.num_vertices())]
     return sc.Convex(vertices=vertices)
 
 
-# Drake's shape -> the scenario's (every kind the contract names).
+# Drake's shape -> the scenario's (a mesh of any shape: `world.decomposition`).
 _SHAPES = {
     Box: lambda s: sc.Box(size=[s.width(), s.depth(), s.height()]),
     Sphere: lambda s: sc.Sphere(radius=s.radius()),
@@ -53,7 +55,6 @@ _SHAPES = {
     Capsule: lambda s: sc.Capsule(radius=s.radius(), length=s.length()),
     Ellipsoid: lambda s: sc.Ellipsoid(radii=[s.a(), s.b(), s.c()]),
     Convex: _hull,
-    Mesh: _hull,
 }
 
 
@@ -100,40 +101,46 @@ def world_obstacles(path: str, label: str) -> list[sc.Obstacle]:
         name = inspector.GetName(geometry).removeprefix(f"{model}::")
         where = f"world {label!r} model {model!r} geometry {name!r}"
         shape = inspector.GetShape(geometry)
-        if type(shape) not in _SHAPES:
+        if type(shape) not in (*_SHAPES, Mesh):
             raise ValueError(
                 f"model {model!r} geometry {name!r}: a {type(shape).__name__} "
                 "is no obstacle shape (a plane is given as `ground:`)"
             )
         X_WG = query.GetPoseInWorld(geometry)
         rpy = RollPitchYaw(X_WG.rotation())
-        obstacles.append(
-            sc.Obstacle(
-                shape=_SHAPES[type(shape)](shape),
-                position=[float(x) for x in X_WG.translation()],
-                rpy_deg=[
-                    round(float(x), RPY_DECIMALS) + 0.0
-                    for x in np.degrees(rpy.vector())
-                ],
-                name=where,
-            )
+        obstacle = sc.Obstacle(
+            position=[float(x) for x in X_WG.translation()],
+            rpy_deg=[
+                round(float(x), RPY_DECIMALS) + 0.0 for x in np.degrees(rpy.vector())
+            ],
+            name=where,
         )
+        if isinstance(shape, Mesh):
+            mesh = str(shape.source().path())
+            try:
+                obstacles += mesh_obstacles(obstacle, mesh, shape.scale3(), where)
+            except ValueError as e:
+                raise ValueError(f"model {model!r} geometry {name!r}: {e}") from None
+        else:
+            shape = _SHAPES[type(shape)](shape)
+            obstacles.append(dataclasses.replace(obstacle, shape=shape))
     if not obstacles:
         raise ValueError("holds no collision geometry")
     return obstacles
 
 
-def with_world(scenario: sc.Scenario, where: str) -> sc.Scenario:
-    """`scenario` with its world file's obstacles after its own and `world`
-    emptied (so it resolves once); itself without a world. Raises
-    ScenarioError naming `where`, the field and the file."""
-    if not scenario.world:
-        return scenario
-    path = os.path.join(scenario.base_dir, scenario.world)
-    try:
-        found = world_obstacles(path, scenario.world)
-    except ValueError as e:
-        sc.fail(where, "world", scenario.world, str(e))
-    return dataclasses.replace(
-        scenario, obstacles=[*scenario.obstacles, *found], world=""
-    )
+def with_files(scenario: sc.Scenario, where: str) -> sc.Scenario:
+    """`scenario` as it flies anywhere: its world file's obstacles after its
+    own, `world` emptied (so it resolves once), and each `!Mesh` replaced by
+    its convex pieces (`decomposition.with_meshes`); itself without either.
+    Raises ScenarioError naming `where`, the field and the file."""
+    if scenario.world:
+        path = os.path.join(scenario.base_dir, scenario.world)
+        try:
+            found = world_obstacles(path, scenario.world)
+        except ValueError as e:
+            sc.fail(where, "world", scenario.world, str(e))
+        scenario = dataclasses.replace(
+            scenario, obstacles=[*scenario.obstacles, *found], world=""
+        )
+    return with_meshes(scenario, where)
