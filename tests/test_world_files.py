@@ -142,6 +142,17 @@ def test_a_goal_inside_a_world_geometry_names_it(tmp_path):
     ) in message
 
 
+def test_an_obstacle_named_by_the_user_is_named_in_errors(tmp_path):
+    obstacle = (
+        '  - {shape: !Sphere {radius: 0.5}, position: [3, 0, 1.5], name: "the ball"}\n'
+    )
+    path = _write(tmp_path, "named.yaml", f"{HEAD}obstacles:\n{obstacle}")
+    with pytest.raises(sc.ScenarioError, match="is inside the ball \\(0.500 m deep\\)"):
+        load_scenario(path, [("--set", "goal: [3, 0, 1.5]")])
+    with pytest.raises(sc.ScenarioError, match="name = 'a\\\\nb': must be one line"):
+        load_scenario(path, [("--set", 'obstacles: [{name: "a\\nb"}]')])
+
+
 def test_a_world_combines_with_obstacles_and_travels_as_them(tmp_path):
     """The scenario's own obstacles first, then the world's; written as YAML
     (what a sweep's worker receives) it reads back equal, with no path."""

@@ -436,6 +436,8 @@ def check_scenario(scenario: Scenario, where: str) -> None:
         _check_vector(at, "rpy_deg", obstacle.rpy_deg)
         if obstacle.motion is not None:
             _check_motion(at, obstacle.motion)
+        if not obstacle.name.isprintable():  # errors quote it in their one line
+            fail(at, "name", obstacle.name, "must be one line of printable text")
     _check_dynamic(where, scenario)
 
 
