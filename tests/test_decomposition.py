@@ -138,10 +138,10 @@ def test_a_mesh_that_cannot_be_decomposed_is_one_line(
     tmp_path, u_obj, capsys, label, text, needle
 ):
     name = "u.stl" if text is None else "bad.obj"
-    if text:
-        (tmp_path / name).write_text(text)
-    if text is None:
+    if text is None:  # an STL file
         (tmp_path / name).write_text("solid u\nendsolid u\n")
+    elif text:  # "": no file
+        (tmp_path / name).write_text(text)
     path = _scenario(tmp_path, f"!Mesh {{file: {name}}}")
     out = tmp_path / "out"
     assert main(["run", path, "--out", str(out)]) == 2
