@@ -204,8 +204,8 @@ def _check_apart(where: str, scenario: sc.Scenario, radius: float) -> None:
 def load_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> sc.Scenario:
     """Loads scenario file `path`, layers `overrides` on it ((where, YAML
     text) pairs, see `config.scenario.parse_scenario`) and validates the
-    result, its `world:` resolved into obstacles; raises ScenarioError if it
-    cannot be flown."""
+    result, its `world:` file and `!Mesh` shapes resolved into obstacles
+    (`world_files.with_files`); raises ScenarioError if it cannot be flown."""
     where = sc.layered_name(path, overrides)
     scenario = with_files(sc.parse_scenario(path, overrides), where)
     validate_scenario(scenario, where)
