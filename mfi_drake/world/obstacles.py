@@ -54,6 +54,12 @@ class _HalfSpaceNotice(logging.Filter):
 _HALF_SPACE_NOTICE = _HalfSpaceNotice()
 
 
+def quiet_half_spaces() -> None:
+    """Drake's notice about half spaces is not shown (a second call adds
+    nothing: a logger holds a filter once)."""
+    logging.getLogger("drake").addFilter(_HALF_SPACE_NOTICE)
+
+
 def register_obstacles(
     scene_graph: SceneGraph, scenario: sc.Scenario
 ) -> ObstacleFrames:
@@ -83,7 +89,7 @@ def register_obstacles(
         else:
             scene_graph.RegisterGeometry(source, frame, instance)
     if scenario.ground is not None:
-        logging.getLogger("drake").addFilter(_HALF_SPACE_NOTICE)
+        quiet_half_spaces()
         ground = GeometryInstance(
             HalfSpace.MakePose([0.0, 0.0, 1.0], [0.0, 0.0, scenario.ground.height]),
             HalfSpace(),

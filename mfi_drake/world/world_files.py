@@ -29,6 +29,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.world.decomposition import mesh_obstacles, with_meshes
+from mfi_drake.world.obstacles import quiet_half_spaces
 
 WORLD_SUFFIXES = (".sdf", ".urdf")
 # Decimals of a degree that a pose's roll, pitch and yaw are read to: the
@@ -73,6 +74,7 @@ def world_obstacles(path: str, label: str) -> list[sc.Obstacle]:
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 
+    quiet_half_spaces()  # a plane is refused below, in one line
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
     try:
