@@ -19,7 +19,7 @@ from mfi_drake.config.dynamic import moves
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.world.meshes import enclosed_volume, read_obj
 from mfi_drake.world.obstacles import closest_obstacles, obstacle_distances
-from mfi_drake.world.shapes import convex_points, mesh_file, shape_mesh
+from mfi_drake.world.shapes import convex_points, shape_mesh
 from mfi_drake.world.world_files import with_files
 
 # [m] a goal's least room beyond the vehicle's collision radius: every
@@ -52,35 +52,53 @@ def _check_mesh(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
         name, value, path = "shape.file", shape.file, sc.mesh_path(scenario, shape)
         if not os.path.isfile(path):
             sc.fail(where, name, value, f"no such file ({path})")
-    try:
-        vertices = convex_points(shape, mesh_file(scenario, shape))
+    try:  # the file read once: its triangles tell whether it is convex
+        vertices, triangles = (
+            read_obj(path) if shape.file else (convex_points(shape, ""), None)
+        )
     except ValueError as e:
         sc.fail(where, name, value, str(e))
     centred = vertices - vertices.mean(axis=0)
     if len(vertices) < 4 or np.linalg.matrix_rank(centred, tol=1e-9) < 3:
         sc.fail(where, name, value, "needs 4+ non-coplanar vertices")
-    if shape.file:
-        _warn_if_not_convex(where, scenario, shape)
+    if triangles is not None:
+        _warn_if_not_convex(where, scenario, shape.file, vertices, triangles)
 
 
 # A mesh whose hull holds this much more than the mesh itself is not convex.
 NOT_CONVEX = 1.05
 
 
-def _warn_if_not_convex(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
+def _warn_if_not_convex(
+    where: str, scenario: sc.Scenario, file: str, vertices, triangles
+) -> None:
     """A `!Convex` file that is not convex flies its hull, filling its
     notches: a ScenarioWarning, one line, says so and how to fly it."""
-    vertices, triangles = read_obj(sc.mesh_path(scenario, shape))
+    if _behind_every_face(vertices, triangles):  # convex: no hull to compute
+        return
     volume = enclosed_volume(vertices, triangles)
     hull = enclosed_volume(*shape_mesh(scenario, sc.Convex(vertices=vertices.tolist())))
     if volume > 0.0 and hull > NOT_CONVEX * volume:
         warnings.warn(
-            f"{where}: shape.file = {shape.file!r}: not convex (its hull holds "
+            f"{where}: shape.file = {file!r}: not convex (its hull holds "
             f"{hull / volume:.2f} times its volume), so !Convex flies the hull; "
-            f"!Mesh {{file: {shape.file}}} flies its shape",
+            f"!Mesh {{file: {file}}} flies its shape",
             ScenarioWarning,
             stacklevel=2,
         )
+
+
+def _behind_every_face(vertices: np.ndarray, triangles: np.ndarray) -> bool:
+    """Whether no vertex lies in front of any face's plane (beyond a
+    billionth of the mesh's size): a closed mesh so is convex. A cheap
+    test that spares the convex shipped meshes computing a hull."""
+    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    lengths = np.linalg.norm(normals, axis=1)
+    keep = lengths > 0.0  # degenerate faces have no plane
+    normals = normals[keep] / lengths[keep, None]
+    heights = vertices @ normals.T - np.einsum("ij,ij->i", normals, a[keep])
+    return bool(heights.max(initial=0.0) <= 1e-9 * np.ptp(vertices))
 
 
 def validate_scenario(scenario: sc.Scenario, where: str) -> None:
