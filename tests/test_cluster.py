@@ -22,12 +22,14 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mfi_drake.app.cli import main
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.studies import cluster as study_cluster
 from mfi_drake.studies import records as record_store
+from mfi_drake.world.meshes import cells_mesh, write_obj
 from mfi_drake.world.validation import load_scenario
 
 from .test_methods import USER_MODULE
@@ -244,6 +246,46 @@ def test_tune_on_the_cluster(cluster, client_dir):
     records = record_store.read_results(str(client_dir / "tune" / "tune.jsonl"))
     assert sorted(r["candidate"] for r in records) == [0, 1, 2]
     assert (client_dir / "tune" / "tuned.yaml").read_text().count("gf") >= 1
+
+
+WORLD = """\
+<?xml version="1.0"?>
+<sdf version="1.9">
+  <model name="shed">
+    <static>true</static>
+    <pose>5 2.5 2 0 0 0</pose>
+    <link name="link">
+      <collision name="roof"><geometry><box><size>4 1 0.2</size></box></geometry>
+      </collision>
+      <collision name="walls"><geometry><mesh><uri>u.obj</uri></mesh></geometry>
+      </collision>
+    </link>
+  </model>
+</sdf>
+"""
+
+
+def test_a_sweep_on_a_world_flies_where_the_world_file_is_not(cluster, client_dir):
+    """Random fields with a world layered on them (`--set 'world: ...'`, an
+    SDFormat file holding a box and a non-convex mesh, in the client's
+    directory): the workers, which cannot open it, fly its obstacles."""
+    cells = np.zeros((3, 2, 1), bool)
+    cells[0] = cells[2] = True
+    cells[:, 0] = True
+    write_obj(str(client_dir / "u.obj"), *cells_mesh(cells, [0.5, 0.5, 1.0]))
+    (client_dir / "shed.sdf").write_text(WORLD)
+    args = ["sweep", "--n", "1", "--seed", "4711", "--methods", "mfi"]
+    args += ["--set", "world: shed.sdf", "--set", "duration: 3"]
+    result = mfi_drake([*args, "--scheduler", cluster.address, "--out", "world"],
+                       client_dir)  # fmt: skip
+    assert result.returncode == 0, result.stderr[-2000:]
+    (record,) = record_store.read_results(str(client_dir / "world" / "results.jsonl"))
+    assert record["outcome"] != "error", record
+    bare = mfi_drake([*args[:-4], "--set", "duration: 3", "--workers", "1",
+                      "--out", "bare"], client_dir)  # fmt: skip
+    assert bare.returncode == 0, bare.stderr[-2000:]
+    (alone,) = record_store.read_results(str(client_dir / "bare" / "results.jsonl"))
+    assert record["obstacles"] >= alone["obstacles"] + 3  # the roof, 2+ pieces
 
 
 def test_a_user_field_that_does_not_import_on_a_worker_is_one_line(cluster, client_dir):

@@ -10,7 +10,10 @@ with their outputs written all the same; each command's --help (built with
 """
 
 import argparse
+import functools
 import sys
+import warnings
+from collections.abc import Callable
 
 from mfi_drake.app.arguments import (
     EXIT_BAD_INPUT,
@@ -30,6 +33,7 @@ from mfi_drake.app.study_commands import add_scene, add_sweep, add_tune
 from mfi_drake.config.scenario import ScenarioError
 from mfi_drake.flight.methods import MethodError
 from mfi_drake.systems.navigation import UserFieldError
+from mfi_drake.world.validation import ScenarioWarning
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -70,6 +74,28 @@ def _check_outputs(args) -> None:
         writable("--html", args.html, directory=False)
 
 
+def _one_line_warnings(command: Callable[..., int]) -> Callable[..., int]:
+    """`command` showing a scenario's warnings as the one line the user
+    reads (others as before)."""
+
+    @functools.wraps(command)
+    def wrapped(*args, **kwargs) -> int:
+        with warnings.catch_warnings():
+            shown = warnings.showwarning
+
+            def show(message, category, *more, **options) -> None:
+                if issubclass(category, ScenarioWarning):
+                    print(f"mfi-drake: warning: {message}", file=sys.stderr)
+                else:
+                    shown(message, category, *more, **options)
+
+            warnings.showwarning = show
+            return command(*args, **kwargs)
+
+    return wrapped
+
+
+@_one_line_warnings
 def main(argv: list[str] | None = None) -> int:
     args = make_parser().parse_args(argv)
     try:

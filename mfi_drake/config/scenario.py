@@ -84,7 +84,16 @@ class Convex:
     vertices: list[list[float]] = field(default_factory=list)  # m, in its frame
 
 
-Shape = Box | Sphere | Cylinder | Capsule | Ellipsoid | Convex
+@dataclass
+class Mesh:
+    """A closed mesh of any shape, flown as the convex pieces it decomposes
+    into (`world.decomposition`; loading replaces it by them)."""
+
+    file: str = ""  # Wavefront OBJ; a relative path is relative to the YAML file
+    scale: float = 1.0
+
+
+Shape = Box | Sphere | Cylinder | Capsule | Ellipsoid | Convex | Mesh
 
 
 @dataclass
@@ -93,6 +102,9 @@ class Obstacle:
     position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # m
     rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # deg
     motion: Motion | None = None  # none: static (docs/dynamic.md)
+    # What errors call it ("" : "an obstacle"); a world file's obstacles are
+    # named "world 'yard.sdf' model 'wall' geometry 'collision'".
+    name: str = ""
 
 
 # --- sensors ------------------------------------------------------------------
@@ -196,6 +208,10 @@ class Scenario:
     vehicle: str = "drake_default"
     sensor: Sensor = field(default_factory=SphereSensor)
     obstacles: list[Obstacle] = field(default_factory=list)
+    # An SDFormat (.sdf) or URDF (.urdf) file, relative to the YAML file, whose
+    # static models' collision geometries are obstacles too: loading appends
+    # them to `obstacles` and empties this (docs/usage.md, "Worlds").
+    world: str = ""
     ground: Ground | None = None  # none: no ground
     # Further vehicles flown at once (docs/dynamic.md).
     other_vehicles: list[OtherVehicle] = field(default_factory=list)
@@ -323,6 +339,8 @@ def _check_shape(where: str, shape) -> None:
         fail(where, "shape", shape, "unknown shape")
     if isinstance(shape, Convex):
         _check_convex(where, shape)
+    if isinstance(shape, Mesh) and not shape.file:
+        fail(where, "shape.file", shape.file, "must name an OBJ file")
     for f in dataclasses.fields(shape):
         value = getattr(shape, f.name)
         if f.name == "vertices":
@@ -412,6 +430,8 @@ def check_scenario(scenario: Scenario, where: str) -> None:
         _check_vector(at, "rpy_deg", obstacle.rpy_deg)
         if obstacle.motion is not None:
             _check_motion(at, obstacle.motion)
+        if not obstacle.name.isprintable():  # errors quote it in their one line
+            fail(at, "name", obstacle.name, "must be one line of printable text")
     _check_dynamic(where, scenario)
 
 
