@@ -25,18 +25,13 @@ from functools import partial
 import numpy as np
 
 from mfi_drake.config.parameters import REPAIRS, NavigatorParams, paper_form
-from mfi_drake.config.scenario import read_override
+from mfi_drake.config.scenario_yaml import read_override
 from mfi_drake.files import write_json, write_text
-from mfi_drake.studies.sweep import (
-    SweepConfig,
-    dask_client,
-    override_variant,
-    rate_cell,
-    read_results,
-    record_key,
-    run_sweep,
-    with_overrides,
-)
+from mfi_drake.studies.cluster import dask_client
+from mfi_drake.studies.records import read_results, record_key
+from mfi_drake.studies.stats import rate_cell
+from mfi_drake.studies.sweep import SweepConfig, run_sweep
+from mfi_drake.studies.variants import override_variant, with_overrides
 
 
 def variants() -> list[tuple[str, str]]:

@@ -4,7 +4,7 @@ costs.
     python benchmarks/depth_speed.py [--repeats 3] [--sensor YAML]
 
 For scenarios/pelican_cylinder.yaml and pelican_cube.yaml, flown as
-`mfi-drake run` flies them (`simulation.simulate`), the camera fixed to the
+`mfi-drake run` flies them (`flight.simulation.simulate`), the camera fixed to the
 body as the files have it and on a gimbal (`gimbal: {}`):
 
 1. the best wall time of Initialize + AdvanceTo over --repeats and its
@@ -39,7 +39,8 @@ import numpy as np
 
 from mfi_drake.config.scenario import Gimbal, Scenario, ScenarioError, SphereSensor
 from mfi_drake.flight.diagram import build_diagram
-from mfi_drake.flight.simulation import Flight, simulate
+from mfi_drake.flight.result import Flight
+from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import OBSTACLE_COUNT
 from mfi_drake.maths.perception import Percept, fuse, read
 from mfi_drake.world.validation import load_scenario

@@ -31,17 +31,11 @@ import numpy as np
 
 from mfi_drake.files import write_json, write_section, write_text
 from mfi_drake.flight.methods import METHODS
-from mfi_drake.studies.sweep import (
-    SweepConfig,
-    dask_client,
-    motion_variant,
-    override_variant,
-    rate_cell,
-    read_results,
-    record_key,
-    run_sweep,
-    with_overrides,
-)
+from mfi_drake.studies.cluster import dask_client
+from mfi_drake.studies.records import read_results, record_key
+from mfi_drake.studies.stats import rate_cell
+from mfi_drake.studies.sweep import SweepConfig, run_sweep
+from mfi_drake.studies.variants import motion_variant, override_variant, with_overrides
 
 WAYS = {
     "relative, own pace": "",  # the default

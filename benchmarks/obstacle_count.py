@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from mfi_drake.flight.diagram import build_diagram
-from mfi_drake.flight.simulation import fly
+from mfi_drake.flight.simulator import fly
 from mfi_drake.world.generator import DEFAULT_WORKSPACE, random_field, random_obstacle
 
 FAR = 12.0  # m, least distance of an added obstacle's centre from the line

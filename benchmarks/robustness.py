@@ -27,20 +27,14 @@ import argparse
 import os
 from functools import partial
 
-from mfi_drake.app.cli import add_overrides, overrides
+from mfi_drake.app.arguments import add_overrides, overrides
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import ScenarioError
 from mfi_drake.files import write_json, write_text
-from mfi_drake.studies.sweep import (
-    ClusterError,
-    SweepConfig,
-    dask_client,
-    layered,
-    rate_cell,
-    require_dask,
-    run_sweep,
-    variant_name,
-)
+from mfi_drake.studies.cluster import ClusterError, dask_client, require_dask
+from mfi_drake.studies.stats import rate_cell
+from mfi_drake.studies.sweep import SweepConfig, run_sweep
+from mfi_drake.studies.variants import layered, variant_name
 
 # imperfection -> (its unit, its levels as Faults), flown in this order (motor
 # lag last: its failing flights tumble and take ~40 s each). Motor lag keeps RotorS'

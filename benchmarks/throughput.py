@@ -7,7 +7,7 @@ diagram, where a sweep flight's time goes, and sweep flights per minute.
 
 Prints, all measured in this run (the machine's load average with each):
 
-1. The planar wall flown by MFI (`simulation.simulate`, the diagram
+1. The planar wall flown by MFI (`flight.simulation.simulate`, the diagram
    `mfi-drake run` flies) and a reference: Drake's C++ `QuadrotorPlant`
    closed by Drake's C++ `StabilizingLQRController` set at the scenario's
    start, started there at rest, logging its state at every step, with the
@@ -62,25 +62,22 @@ from pydrake.examples import StabilizingLQRController
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from mfi_drake.config.scenario import (
-    Scenario,
-    ScenarioError,
-    read_override,
-    scenario_to_yaml,
-)
+from mfi_drake.config.scenario import Scenario, ScenarioError
+from mfi_drake.config.scenario_yaml import read_override, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_section
 from mfi_drake.flight.diagram import build_diagram, make_plant
-from mfi_drake.flight.simulation import fly, run_timed, simulate, simulator_at_start
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.flight.simulator import fly, run_timed, simulator_at_start
+from mfi_drake.studies.cluster import dask_client
 from mfi_drake.studies.sweep import (
     SWEEP_ENDS,
     SweepConfig,
-    dask_client,
     field_reference,
     run_sweep,
     task_scenario,
-    with_overrides,
 )
+from mfi_drake.studies.variants import with_overrides
 from mfi_drake.systems.last_result import LastResult
 from mfi_drake.world import generator
 from mfi_drake.world.validation import load_scenario

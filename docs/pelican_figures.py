@@ -21,8 +21,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from mfi_drake.app.cli import summary_line  # noqa: E402
 from mfi_drake.app.figures import plot_flights  # noqa: E402
+from mfi_drake.app.flight_commands import summary_line  # noqa: E402
 from mfi_drake.files import atomic_path  # noqa: E402
 from mfi_drake.flight.diagram import build_diagram  # noqa: E402
 from mfi_drake.flight.simulation import simulate  # noqa: E402

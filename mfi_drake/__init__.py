@@ -45,7 +45,7 @@ _API = {
     "Scenario": "mfi_drake.config.scenario",
     "ScenarioError": "mfi_drake.config.scenario",
     "simulate": "mfi_drake.flight.simulation",
-    "Flight": "mfi_drake.flight.simulation",
+    "Flight": "mfi_drake.flight.result",
     "METHODS": "mfi_drake.flight.methods",
     "NavigationStep": "mfi_drake.flight.step",
     "StepOutput": "mfi_drake.flight.step",

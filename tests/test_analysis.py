@@ -17,8 +17,9 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.analysis_diagram import build_analysis_diagram, hover_state
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import fields
+from mfi_drake.maths.constants import GRAVITY
 from mfi_drake.maths.layout import obstacle_signal
-from mfi_drake.maths.quadcopter import GRAVITY, attitude_gains
+from mfi_drake.maths.quadcopter import attitude_gains
 from mfi_drake.maths.reduced_models import (
     point_mass_heading,
     reduced_terminal_dynamics,

@@ -26,9 +26,8 @@ from mfi_drake.config.scenario import (
     RigCamera,
     Scenario,
     Sphere,
-    parse_scenario,
-    read_override,
 )
+from mfi_drake.config.scenario_yaml import parse_scenario, read_override
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, VELOCITY, seen_points

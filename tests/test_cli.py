@@ -10,7 +10,7 @@ import shutil
 import pytest
 
 from mfi_drake.app.cli import main, make_parser
-from mfi_drake.studies import sweep
+from mfi_drake.studies import cluster as study_cluster
 
 from .conftest import SCENARIOS
 
@@ -127,7 +127,7 @@ def no_cluster(*args):
 
 
 def test_tune_warns_once_when_it_has_no_held_out_phase(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(sweep, "dask_client", no_cluster)
+    monkeypatch.setattr(study_cluster, "dask_client", no_cluster)
     args = ["tune", "--methods", "mfi", "--out", str(tmp_path)]
     for extra, warned in (([], True), (["--held-out-seed", "5"], False)):
         with pytest.raises(NoClusterError):
@@ -196,7 +196,7 @@ def test_a_bad_value_from_a_layer_names_the_layers(
 ):
     """The file says duration: 40; the error must blame the --set, and the
     sweep must refuse before its cluster starts or its directory exists."""
-    monkeypatch.setattr(sweep, "dask_client", no_cluster)
+    monkeypatch.setattr(study_cluster, "dask_client", no_cluster)
     out = tmp_path / "out"
     where = [PLANAR_WALL] if command == "run" else ["--n", "1"]
     args = [command, *where, "--set", "duration: -1", "--out", str(out)]

@@ -22,11 +22,14 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mfi_drake.app.cli import main
 from mfi_drake.flight.simulation import simulate
-from mfi_drake.studies import sweep
+from mfi_drake.studies import cluster as study_cluster
+from mfi_drake.studies import records as record_store
+from mfi_drake.world.meshes import cells_mesh, write_obj
 from mfi_drake.world.validation import load_scenario
 
 from .test_methods import USER_MODULE
@@ -129,7 +132,7 @@ def mfi_drake(args: list[str], cwd: Path, env: dict | None = None, wait=True):
 
 def flights(out: Path) -> dict[tuple, dict]:
     """results.jsonl by (method, field), without the wall time; each once."""
-    records = sweep.read_results(str(out / "results.jsonl"))
+    records = record_store.read_results(str(out / "results.jsonl"))
     by_flight = {(r["method"], r["scenario"]): r for r in records}
     assert len(by_flight) == len(records), "a flight recorded twice"
     for r in records:
@@ -240,9 +243,49 @@ def test_tune_on_the_cluster(cluster, client_dir):
     args += ["--density", "0.05", "--scheduler", cluster.address, "--out", "tune"]
     result = mfi_drake(args, client_dir)
     assert result.returncode == 0, result.stderr[-2000:]
-    records = sweep.read_results(str(client_dir / "tune" / "tune.jsonl"))
+    records = record_store.read_results(str(client_dir / "tune" / "tune.jsonl"))
     assert sorted(r["candidate"] for r in records) == [0, 1, 2]
     assert (client_dir / "tune" / "tuned.yaml").read_text().count("gf") >= 1
+
+
+WORLD = """\
+<?xml version="1.0"?>
+<sdf version="1.9">
+  <model name="shed">
+    <static>true</static>
+    <pose>5 2.5 2 0 0 0</pose>
+    <link name="link">
+      <collision name="roof"><geometry><box><size>4 1 0.2</size></box></geometry>
+      </collision>
+      <collision name="walls"><geometry><mesh><uri>u.obj</uri></mesh></geometry>
+      </collision>
+    </link>
+  </model>
+</sdf>
+"""
+
+
+def test_a_sweep_on_a_world_flies_where_the_world_file_is_not(cluster, client_dir):
+    """Random fields with a world layered on them (`--set 'world: ...'`, an
+    SDFormat file holding a box and a non-convex mesh, in the client's
+    directory): the workers, which cannot open it, fly its obstacles."""
+    cells = np.zeros((3, 2, 1), bool)
+    cells[0] = cells[2] = True
+    cells[:, 0] = True
+    write_obj(str(client_dir / "u.obj"), *cells_mesh(cells, [0.5, 0.5, 1.0]))
+    (client_dir / "shed.sdf").write_text(WORLD)
+    args = ["sweep", "--n", "1", "--seed", "4711", "--methods", "mfi"]
+    args += ["--set", "world: shed.sdf", "--set", "duration: 3"]
+    result = mfi_drake([*args, "--scheduler", cluster.address, "--out", "world"],
+                       client_dir)  # fmt: skip
+    assert result.returncode == 0, result.stderr[-2000:]
+    (record,) = record_store.read_results(str(client_dir / "world" / "results.jsonl"))
+    assert record["outcome"] != "error", record
+    bare = mfi_drake([*args[:-4], "--set", "duration: 3", "--workers", "1",
+                      "--out", "bare"], client_dir)  # fmt: skip
+    assert bare.returncode == 0, bare.stderr[-2000:]
+    (alone,) = record_store.read_results(str(client_dir / "bare" / "results.jsonl"))
+    assert record["obstacles"] >= alone["obstacles"] + 3  # the roof, 2+ pieces
 
 
 def test_a_user_field_that_does_not_import_on_a_worker_is_one_line(cluster, client_dir):
@@ -263,7 +306,9 @@ def test_a_user_field_that_does_not_import_on_a_worker_is_one_line(cluster, clie
     assert result.returncode == 2
     (line,) = result.stderr.strip().splitlines()
     assert "'needs_data'" in line and "on worker tcp://" in line, line
-    assert not sweep.read_results(str(client_dir / "needs_data" / "results.jsonl"))
+    assert not record_store.read_results(
+        str(client_dir / "needs_data" / "results.jsonl")
+    )
 
 
 def test_a_cluster_without_workers_is_one_line(
@@ -271,7 +316,7 @@ def test_a_cluster_without_workers_is_one_line(
 ):
     """At the start (sweep and tune), and when the last worker dies."""
     empty = Cluster(tmp_path / "empty", client_dir)
-    monkeypatch.setattr(sweep, "WORKER_WAIT", 2.0)
+    monkeypatch.setattr(study_cluster, "WORKER_WAIT", 2.0)
     try:
         for command in (
             ["sweep", "--n", "1"],
@@ -298,9 +343,11 @@ def test_a_cluster_without_workers_is_one_line(
         with distributed.Client(empty.address, timeout=30) as client:
             client.wait_for_workers(1, timeout=60)
             threading.Thread(target=kill_when_napping).start()
-            nap = sweep.Task("nap", time.sleep, (120,))
-            with pytest.raises(sweep.ClusterError, match="all left, and none joined"):
-                sweep.run_tasks(client, [("nap", nap)], lambda *_: None)
+            nap = study_cluster.Task("nap", time.sleep, (120,))
+            with pytest.raises(
+                study_cluster.ClusterError, match="all left, and none joined"
+            ):
+                study_cluster.run_tasks(client, [("nap", nap)], lambda *_: None)
     finally:
         empty.close()
 

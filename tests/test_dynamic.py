@@ -19,7 +19,8 @@ from mfi_drake.app.figures import plot_flights
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground, Motion, OtherVehicle, RelativeVelocity
 from mfi_drake.flight.diagram import build_diagram
-from mfi_drake.flight.simulation import outcome, simulate
+from mfi_drake.flight.result import outcome
+from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,
@@ -33,13 +34,9 @@ from mfi_drake.maths.motion import (
     keep_own_pace,
     match_points,
 )
-from mfi_drake.studies.sweep import (
-    SweepConfig,
-    motion_variant,
-    read_results,
-    run_sweep,
-    with_overrides,
-)
+from mfi_drake.studies.records import read_results
+from mfi_drake.studies.sweep import SweepConfig, run_sweep
+from mfi_drake.studies.variants import motion_variant, with_overrides
 from mfi_drake.systems.navigation import MfiNavigator
 from mfi_drake.systems.relative import ObstacleVelocityEstimator, relative_navigator
 from mfi_drake.world.generator import random_field, set_in_motion

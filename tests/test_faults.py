@@ -16,18 +16,16 @@ from pydrake.systems.primitives import ConstantVectorSource, Integrator, Multipl
 
 from mfi_drake.app.cli import main
 from mfi_drake.config.faults import Faults
-from mfi_drake.config.scenario import Scenario, ScenarioError, read_faults
+from mfi_drake.config.scenario import Scenario, ScenarioError
+from mfi_drake.config.scenario_yaml import read_faults
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import build_diagram
-from mfi_drake.flight.simulation import fly, simulate
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.flight.simulator import fly
 from mfi_drake.maths.faults import corrupt_reading, sample_rng
-from mfi_drake.studies.sweep import (
-    SweepConfig,
-    fault_variant,
-    read_results,
-    run_sweep,
-    with_faults,
-)
+from mfi_drake.studies.records import read_results
+from mfi_drake.studies.sweep import SweepConfig, run_sweep
+from mfi_drake.studies.variants import fault_variant, with_faults
 from mfi_drake.systems.faults import MotorLag, SensorFaults, StateEstimateError
 from mfi_drake.world.validation import load_scenario
 

@@ -12,17 +12,20 @@ from pydrake.geometry import GeometryInstance, RenderLabel, Rgba, SceneGraph
 from pydrake.geometry import Sphere as DrakeSphere
 from pydrake.math import RigidTransform
 
-from mfi_drake.app.cli import main, summary_line
+from mfi_drake.app.cli import main
 from mfi_drake.app.figures import plot_fleet_sweep
+from mfi_drake.app.flight_commands import summary_line
 from mfi_drake.app.flight_log import write_flight_log
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion, OtherVehicle
-from mfi_drake.config.scenario import scenario_to_yaml
+from mfi_drake.config.scenario_yaml import scenario_to_yaml
 from mfi_drake.flight.diagram import vehicle_scenarios
-from mfi_drake.flight.simulation import least_separation, simulate
+from mfi_drake.flight.result import least_separation
+from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import obstacle_signal, readings
 from mfi_drake.maths.motion import turned_right
 from mfi_drake.studies import fleet_sweep, sweep
+from mfi_drake.studies.records import read_results
 from mfi_drake.systems.exchange import extrapolated, merge, message
 from mfi_drake.systems.navigation import MfiNavigator
 from mfi_drake.systems.relative import RelativeNavigator
@@ -415,7 +418,7 @@ def test_fleet_sweep_records_every_vehicle(tmp_path, threads_client):
         config, threads_client, _short, sys.stdout, tasks=fleet_sweep.FLEET
     )
     assert (run.ran, run.lost) == (2, [])
-    records = sweep.read_results(str(tmp_path / "results.jsonl"))
+    records = read_results(str(tmp_path / "results.jsonl"))
     for r in records:
         assert r["vehicles"] == 3 and len(r["path_ratios"]) == 3
         assert r["outcome"] == "timeout" and r["deadlocks"] == 3  # 1 s of 10 m

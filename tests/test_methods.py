@@ -19,7 +19,7 @@ from mfi_drake.config.scenario import Obstacle, Scenario, Sphere
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
-from mfi_drake.flight.simulation import fly
+from mfi_drake.flight.simulator import fly
 from mfi_drake.maths.baselines import apf_obstacle_field, attraction_field
 from mfi_drake.systems.navigation import UserFieldError
 

@@ -170,14 +170,6 @@ def test_remember_forgets_by_age_and_by_distance_and_adds_the_frame():
     np.testing.assert_array_equal(after.times, [1.0, 2.6])
 
 
-def box_surface(low, high, step=0.05) -> np.ndarray:
-    """Points on the surface of the box [low, high], `step` apart."""
-    axes = [np.arange(lo, hi + 1e-9, step) for lo, hi in zip(low, high, strict=True)]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    on_face = np.any(np.isclose(grid, low) | np.isclose(grid, high), axis=1)
-    return grid[on_face]
-
-
 def bfs_components(n, edges):
     """Labels by breadth-first search (the oracle)."""
     neighbours = [[] for _ in range(n)]

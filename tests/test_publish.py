@@ -10,7 +10,7 @@ import pytest
 
 from mfi_drake import load_scenario
 from mfi_drake.config.parameters import NavigatorParams
-from mfi_drake.config.scenario import read_override
+from mfi_drake.config.scenario_yaml import read_override
 
 from .conftest import ROOT, SCENARIOS, git_tracked, load_benchmark
 

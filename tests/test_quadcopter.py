@@ -11,8 +11,8 @@ from pydrake.systems.primitives import ConstantVectorSource
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import make_plant
+from mfi_drake.maths.constants import GRAVITY
 from mfi_drake.maths.quadcopter import (
-    GRAVITY,
     attitude_setpoint,
     mix,
     mixer_matrix,

@@ -1,7 +1,7 @@
 """A flight that ends once its vehicle has settled at the goal (what sweeps
-fly, `simulation.settled_monitor`) has the whole flight's metrics within
+fly, `monitors.settled_monitor`) has the whole flight's metrics within
 the integrator's accuracy, and only flights that stay at rest end early.
-A flight that ends at its first contact (`simulation.contact_monitor`) is
+A flight that ends at its first contact (`monitors.contact_monitor`) is
 the whole flight's first part, and ends at the step the sphere's closed
 form calls the first contact."""
 
@@ -13,7 +13,8 @@ import pytest
 from mfi_drake.config.dynamic import Motion
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import DepthCamera, Obstacle, Scenario, Sphere
-from mfi_drake.flight.simulation import settles, simulate
+from mfi_drake.flight.monitors import settles
+from mfi_drake.flight.simulation import simulate
 
 SCENARIO = Scenario(
     start=[0.0, 0.0, 1.5],

@@ -16,7 +16,10 @@ from mfi_drake.app.figures import plot_sweep
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.vehicles import VEHICLES
-from mfi_drake.studies import sweep
+from mfi_drake.studies import cluster as study_cluster
+from mfi_drake.studies import records as record_store
+from mfi_drake.studies import stats as sweep_stats
+from mfi_drake.studies import sweep, variants
 from mfi_drake.world import generator
 from mfi_drake.world.meshes import prism, write_obj
 from mfi_drake.world.obstacles import obstacle_distances
@@ -213,22 +216,26 @@ def test_reference_path_is_straight_without_obstacles_in_the_way():
 # --- statistics ---------------------------------------------------------------------
 def test_wilson_interval_matches_hand_computed_values():
     # k = 0: upper end z²/(n + z²); k = n/2: symmetric about 1/2.
-    assert sweep.wilson_interval(0, 30) == pytest.approx([0.0, 0.113513], abs=1e-6)
-    assert sweep.wilson_interval(30, 30) == pytest.approx([0.886487, 1.0], abs=1e-6)
-    assert sweep.wilson_interval(15, 30) == pytest.approx(
+    assert sweep_stats.wilson_interval(0, 30) == pytest.approx(
+        [0.0, 0.113513], abs=1e-6
+    )
+    assert sweep_stats.wilson_interval(30, 30) == pytest.approx(
+        [0.886487, 1.0], abs=1e-6
+    )
+    assert sweep_stats.wilson_interval(15, 30) == pytest.approx(
         [0.331541, 0.668459], abs=1e-6
     )
-    assert sweep.wilson_interval(0, 0) is None
+    assert sweep_stats.wilson_interval(0, 0) is None
     for n in (1, 7, 30, 199, 200):  # always holds the observed rate
         for k in range(n + 1):
-            lo, hi = sweep.wilson_interval(k, n)
+            lo, hi = sweep_stats.wilson_interval(k, n)
             assert 0.0 <= lo <= k / n <= hi <= 1.0
 
 
 def test_median_interval_uses_ranks_40_and_61_of_100():
     values = np.arange(1.0, 101.0)[::-1]  # unsorted on purpose
-    assert sweep.median_interval(values) == [40.0, 61.0]
-    assert sweep.median_interval([]) is None
+    assert sweep_stats.median_interval(values) == [40.0, 61.0]
+    assert sweep_stats.median_interval([]) is None
 
 
 # --- running sweeps -----------------------------------------------------------------
@@ -288,18 +295,20 @@ def test_two_worker_sweep_records_every_flight(tmp_path):
     config = sweep.SweepConfig(
         n=2, seed=9, methods=["mfi", "gf"], densities=[0.05, 0.1], out=str(tmp_path)
     )
-    with sweep.dask_client(2, None) as client:
+    with study_cluster.dask_client(2, None) as client:
         pids = set(client.run(os.getpid).values())
         run = sweep.run_sweep(config, client, modify=_short, progress_stream=sys.stdout)
     assert len(pids) == 2 and os.getpid() not in pids
     assert (run.ran, run.lost) == (8, [])
-    records = sweep.read_results(str(tmp_path / "results.jsonl"))
-    assert sorted(sweep.record_key(r) for r in records) == sorted(config.flight_keys())
+    records = record_store.read_results(str(tmp_path / "results.jsonl"))
+    assert sorted(record_store.record_key(r) for r in records) == sorted(
+        config.flight_keys()
+    )
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary == json.loads(json.dumps(run.summary))
     for method in config.methods:
         for stats in summary["methods"][method]["by_density"].values():
-            rates = [stats[f"{o}_rate"] for o in sweep.OUTCOMES]
+            rates = [stats[f"{o}_rate"] for o in record_store.OUTCOMES]
             assert stats["n"] == 2 and sum(rates) == pytest.approx(1.0)
     assert "| mfi | 0.05 | 2 |" in (tmp_path / "table.md").read_text()
     plot_sweep(summary, str(tmp_path / "sweep.png"))
@@ -345,7 +354,7 @@ def test_a_long_or_path_like_variant_names_its_failure_file_by_a_hash(tmp_path):
     field = sc.Scenario(name="field_d0.2_s100_i7")
     names = {}
     for variant in ("sensor_noise_std=0.05", "x" * 200, "navigator: {c: 2}/x"):
-        key = sweep.FlightKey(variant, "depth", 0.2, 100, 7, "mfi")
+        key = record_store.FlightKey(variant, "depth", 0.2, 100, 7, "mfi")
         names[variant] = os.path.basename(sweep._failure_path(config, key, field))
     assert names["sensor_noise_std=0.05"] == (
         "sensor_noise_std=0.05_depth_mfi_field_d0.2_s100_i7.yaml"
@@ -360,9 +369,9 @@ def test_variant_names_join_motion_overrides_and_faults_in_that_order():
     them): each part as its own function names it, "" when none."""
     set_text = [("--set", "navigator: {c: 2}")]
     faults = Faults(position_noise_std=0.05)
-    motion = sweep.motion_variant(0.3, 0.5)
-    assert sweep.variant_name() == ""
-    assert sweep.variant_name(set_text, faults, motion) == (
+    motion = variants.motion_variant(0.3, 0.5)
+    assert variants.variant_name() == ""
+    assert variants.variant_name(set_text, faults, motion) == (
         "moving=0.3,obstacle_speed=0.5,navigator: {c: 2},position_noise_std=0.05"
     )
-    assert sweep.variant_name(faults=faults) == "position_noise_std=0.05"
+    assert variants.variant_name(faults=faults) == "position_noise_std=0.05"

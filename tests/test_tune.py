@@ -2,12 +2,15 @@
 held-out seeds that must differ from the training ones, an override file
 that run accepts, and a search that finds a toy method's known best gain."""
 
+import hashlib
 import json
 import os
+import sys
 import textwrap
 
 import numpy as np
 import pytest
+import yaml
 
 from mfi_drake import load_scenario
 from mfi_drake.app.cli import main
@@ -15,7 +18,7 @@ from mfi_drake.config import scenario as sc
 from mfi_drake.config.parameters import GfParams, NavigatorParams
 from mfi_drake.flight.methods import METHODS, Gain
 from mfi_drake.studies.compare import PAPER_SCENARIOS
-from mfi_drake.studies.sweep import read_results
+from mfi_drake.studies.records import read_results
 from mfi_drake.studies.tune import (
     TuneConfig,
     TuneError,
@@ -24,6 +27,7 @@ from mfi_drake.studies.tune import (
     override_text,
     training_fields,
     tune,
+    tune_held_out,
     unit_point,
 )
 
@@ -125,6 +129,40 @@ def test_same_budget_and_fields_for_every_method_and_toy_optimum(
     layered = load_scenario(scenario, [(str(tuned), tuned.read_text())])
     assert layered.field_gains == {"k": best["toy:cruise"].values["field_gains.k"]}
     assert layered.gf.k_g == best["gf"].values["gf.k_g"]
+
+
+def test_the_held_out_protocol_runs_from_python(toy_dir, threads_client):
+    """`tune_held_out`: the winners of tuned.yaml flown on the held-out seed's
+    fields, keyed by the override file's variant, where the CLI puts them."""
+    config = TuneConfig(
+        methods=["toy:cruise"],
+        candidates=3,
+        seed=100,
+        n=1,
+        densities=[0.0],
+        held_out_seed=101,
+        out=str(toy_dir / "tune"),
+    )
+    best, run = tune_held_out(config, threads_client, 2, [0.0], sys.stdout)
+    tuned = (toy_dir / "tune" / "tuned.yaml").read_text()
+    k = best["toy:cruise"].values["field_gains.k"]
+    assert yaml.safe_load(tuned) == {"field_gains": {"k": k}}
+    records = read_results(str(toy_dir / "tune" / "held_out" / "results.jsonl"))
+    assert (run.ran, run.skipped, run.lost) == (2, 0, [])
+    assert sorted((r["seed"], r["index"], r["method"]) for r in records) == [
+        (101, 0, "toy:cruise"),
+        (101, 1, "toy:cruise"),
+    ]
+    # The variant names the override file by its name and a hash of its text.
+    digest = hashlib.sha1(tuned.encode()).hexdigest()[:8]
+    assert {r["variant"] for r in records} == {f"tuned.yaml@{digest}"}
+    # Empty fields: the toy flies straight to the goal at any gain.
+    assert all(r["outcome"] == "success" for r in records)
+    assert run.summary["methods"]["toy:cruise"]["success_rate"] == 1.0
+    # Without a held-out seed: the tuning alone, no held-out sweep.
+    config.held_out_seed = None
+    again, none = tune_held_out(config, threads_client, progress_stream=sys.stdout)
+    assert none is None and again["toy:cruise"].values == best["toy:cruise"].values
 
 
 def test_overlapping_held_out_seed_is_refused(tmp_path, capsys):

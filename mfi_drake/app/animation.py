@@ -40,7 +40,7 @@ from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_text
 from mfi_drake.flight.methods import appearance
-from mfi_drake.flight.simulation import Flight, outcome
+from mfi_drake.flight.result import Flight, outcome
 from mfi_drake.systems.sensors import VehicleGeometry
 from mfi_drake.world.motion import obstacle_position
 from mfi_drake.world.obstacles import GROUND_RGBA, register_obstacles

@@ -21,7 +21,7 @@ from mfi_drake.config.dynamic import moves
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.files import atomic_path
 from mfi_drake.flight.methods import appearance
-from mfi_drake.flight.simulation import outcome as flight_outcome
+from mfi_drake.flight.result import outcome as flight_outcome
 from mfi_drake.world.motion import obstacle_position
 from mfi_drake.world.obstacles import obstacle_triangles
 from mfi_drake.world.shapes import bounding_radius

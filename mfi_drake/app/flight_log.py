@@ -5,7 +5,7 @@ import json
 import numpy as np
 
 from mfi_drake.files import atomic_path
-from mfi_drake.flight.simulation import Flight
+from mfi_drake.flight.result import Flight
 
 
 def write_flight_log(path: str, flight: Flight) -> None:

@@ -11,8 +11,6 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-from mfi_drake.maths.baselines import cone_radius
-
 
 @dataclass
 class NavigatorParams:
@@ -237,6 +235,11 @@ class AttractionParams:
     """Khatib's velocity limit [m/s]: beyond d* = k_d v_max / k_att the pull is
     the constant k_d v_max [N], so the vehicle cruises at v_max."""
 
+    @property
+    def cone_radius(self) -> float:
+        """d* = k_d v_max / k_att [m]: within it the attraction is eq 20's PD."""
+        return self.k_d * self.v_max / self.k_att
+
 
 class BaselineTerminal:
     """The zone of a baseline's terminal approach (`fields.terminal_weight`):
@@ -244,7 +247,7 @@ class BaselineTerminal:
 
     @property
     def terminal_zone(self) -> float:
-        return cone_radius(self.attraction)
+        return self.attraction.cone_radius
 
 
 @dataclass

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mfi_drake.maths.quadcopter import GRAVITY
+from mfi_drake.maths.constants import GRAVITY
 
 
 @dataclass(frozen=True)

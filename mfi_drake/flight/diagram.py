@@ -22,7 +22,7 @@ exported input "other_vehicles", the last message of the fleet's exchange
 (`OtherVehicleReadings`, which also gives their velocities to the relative
 navigator where nothing else moves) or posed in SceneGraph for cameras
 (`OtherVehicleSpheres`). A fleet flies one such diagram per vehicle
-(`vehicle_scenarios`, `simulation.fly_fleet`).
+(`vehicle_scenarios`, `fleet_exchange.fly_fleet`).
 """
 
 from dataclasses import dataclass, replace

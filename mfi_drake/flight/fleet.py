@@ -13,7 +13,7 @@ compiled, every vehicle in one call), one Simulator with the scenario's
 error-controlled integrator, one logger: every vehicle sees the others
 where they are, with no exchange. The other design, a diagram and
 Simulator a vehicle exchanging states at `exchange_hz`, is
-`simulation.fly_fleet`; `simulation.fly_one_integrator` flies this one.
+`fleet_exchange.fly_fleet`; `one_integrator.fly_one_integrator` flies this one.
 """
 
 from pydrake.geometry import SceneGraph

@@ -31,15 +31,10 @@ if TYPE_CHECKING:  # annotations only: the maths layer needs no configuration
 
 
 # --- goal attraction (both baselines) ----------------------------------------
-def cone_radius(a: AttractionParams) -> float:
-    """d* = k_d v_max / k_att [m]: within it the attraction is eq 20's PD."""
-    return a.k_d * a.v_max / a.k_att
-
-
 def attraction_potential(p: np.ndarray, goal: np.ndarray, a: AttractionParams):
     """U_att [J]: ½ k_att d² for d ≤ d*, k_att d* (d − d*/2) beyond (d = |p − p_g|)."""
     d = norm(p - goal)
-    d_star = cone_radius(a)
+    d_star = a.cone_radius
     if d <= d_star:
         return 0.5 * a.k_att * d * d
     return a.k_att * d_star * (d - 0.5 * d_star)
@@ -52,7 +47,7 @@ def attraction_field(
     −k_d v_max (p − p_g)/|p − p_g| − k_d ṗ beyond (Khatib's velocity limit)."""
     e = p - goal
     d = norm(e)
-    d_star = cone_radius(a)
+    d_star = a.cone_radius
     if d <= d_star:
         return -a.k_att * e - a.k_d * v
     return -(a.k_att * d_star / d) * e - a.k_d * v

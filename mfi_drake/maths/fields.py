@@ -111,6 +111,13 @@ def fallback_tangent(n: np.ndarray, r_g: np.ndarray) -> np.ndarray:
 
 
 def _continuous_tangent(n, r_g) -> tuple:
+    """A unit tangent to the obstacle at the closest point that varies
+    continuously with n and the goal (repair (b)): the goal direction
+    projected on the tangent plane (go round on the goal's side) plus a small
+    fixed horizontal bias e_z × n (go round to the left when the goal is
+    straight behind) and a smaller e_x × n (for a vertical n). The sum is
+    zero only on a set of measure zero, where `fallback_tangent` is used.
+    Takes and returns triples (`so3.entries`)."""
     distance = norm(r_g)
     l_g = _divided(r_g, distance) if distance > TINY else _zeros(n[0])
     along = dot(l_g, n)
@@ -122,16 +129,6 @@ def _continuous_tangent(n, r_g) -> tuple:
     )
     size = norm(t)
     return _divided(t, size) if size > TINY else _fallback_tangent(n, r_g)
-
-
-def continuous_tangent(n: np.ndarray, r_g: np.ndarray) -> np.ndarray:
-    """A unit tangent to the obstacle at the closest point that varies
-    continuously with n and the goal (repair (b)): the goal direction
-    projected on the tangent plane (go round on the goal's side) plus a small
-    fixed horizontal bias e_z × n (go round to the left when the goal is
-    straight behind) and a smaller e_x × n (for a vertical n). The sum is
-    zero only on a set of measure zero, where `fallback_tangent` is used."""
-    return np.array(_continuous_tangent(entries(n), entries(r_g)))
 
 
 def _artificial_current(l_a, n, r_g, blend: float, continuous: bool) -> tuple:
@@ -166,7 +163,7 @@ def artificial_current(
     |l_o| = blend. The paper's form takes d = ±`fallback_tangent` (the goal's
     side, else horizontal), signed to agree with l_o: never zero, but its
     side flips with the sign of l_o·t however small l_o is (a 1e-9 change of
-    heading). `continuous` takes d = σ t, t = `continuous_tangent` and σ =
+    heading). `continuous` takes d = σ t, t = `_continuous_tangent` and σ =
     clip((l_o·t + blend/20) / (blend/10), −1, 1): the same side as the paper
     outside a band |l_o·t + blend/20| < blend/10, and continuous across it.
     The current is never zero: where σ = 0, |l_o| ≥ blend/20.
@@ -224,52 +221,32 @@ def blocking_weight(
     return _blocking_weight(entries(l_a), entries(n), entries(r_g), r_o, radius)
 
 
-def _boundary_following(
+def boundary_following(
     l_a, l_o, speed, r, c: float, r_l: float, tapered: bool = False
 ) -> tuple:
+    """Eq 12–13: F = c · l_a × (l_o × l_a) · f, f = v/r if r < r_l else 0;
+    `tapered` (repair (f)): f = v (1/r − 1/r_l), continuous at r_l.
+    Takes and returns triples (`so3.entries`).
+
+    Perpendicular to l_a, so it does no work.
+    """
     if r >= r_l:
         return _zeros(l_a[0])
     k = c * speed * (1.0 / r - 1.0 / r_l) if tapered else c * speed / r
     return _scaled(_cross(l_a, _cross(l_o, l_a)), k)
 
 
-def boundary_following_field(
-    l_a: np.ndarray,
-    l_o: np.ndarray,
-    speed,
-    r,
-    c: float,
-    r_l: float,
-    tapered: bool = False,
-) -> np.ndarray:
-    """Eq 12–13: F = c · l_a × (l_o × l_a) · f, f = v/r if r < r_l else 0;
-    `tapered` (repair (f)): f = v (1/r − 1/r_l), continuous at r_l.
+def collision_avoidance(l_a, n, l_o, r, c_perp: float, r_b: float) -> tuple:
+    """Eq 14–15: F_a = l_a × (n × l_o⊥) · f_a, l_o⊥ = −l_o,
+    f_a = c⊥ (1/r − 1/r_b) / r² if r < r_b else 0. Takes and returns
+    triples (`so3.entries`).
 
-    Perpendicular to l_a, so it does no work.
+    Perpendicular to l_a (no work); turns the heading away from the surface.
     """
-    return np.array(
-        _boundary_following(entries(l_a), entries(l_o), speed, r, c, r_l, tapered)
-    )
-
-
-def _collision_avoidance(l_a, n, l_o, r, c_perp: float, r_b: float) -> tuple:
     if r >= r_b:
         return _zeros(l_a[0])
     f_a = c_perp * (1.0 / r - 1.0 / r_b) / (r * r)
     return _scaled(_cross(l_a, _cross(l_o, n)), f_a)  # n × l_o⊥ = l_o × n
-
-
-def collision_avoidance_field(
-    l_a: np.ndarray, n: np.ndarray, l_o: np.ndarray, r, c_perp: float, r_b: float
-) -> np.ndarray:
-    """Eq 14–15: F_a = l_a × (n × l_o⊥) · f_a, l_o⊥ = −l_o,
-    f_a = c⊥ (1/r − 1/r_b) / r² if r < r_b else 0.
-
-    Perpendicular to l_a (no work); turns the heading away from the surface.
-    """
-    return np.array(
-        _collision_avoidance(entries(l_a), entries(n), entries(l_o), r, c_perp, r_b)
-    )
 
 
 def obstacle_field(
@@ -305,14 +282,14 @@ def obstacle_field(
     n = _divided(r_o, distance)
     r_g = entries(r_g)
     l_o = _artificial_current(l_a, n, r_g, params.tangent_blend, params.continuous_side)
-    F = _boundary_following(
+    F = boundary_following(
         l_a, l_o, speed, r, params.c, params.r_l, params.tapered_range
     )
     if params.follow_blocking_only:
         ahead = r_o if params.follow_ahead_only else None
         weight = _blocking_weight(l_a, n, r_g, ahead, collision_radius)
         F = _scaled(F, weight)
-    F_a = _collision_avoidance(l_a, n, l_o, r, params.c_perp, params.r_b)
+    F_a = collision_avoidance(l_a, n, l_o, r, params.c_perp, params.r_b)
     if params.hover_fade and speed < params.fade_speed:
         F_a = _scaled(F_a, speed / params.fade_speed)
     return np.array(F), np.array(F_a)

@@ -13,14 +13,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from mfi_drake.maths.constants import GRAVITY
 from mfi_drake.maths.layout import ANGULAR_RATE, ATTITUDE, ROTORS, VELOCITY
 from mfi_drake.maths.so3 import cos, entries, floor, sin, sqrt
 
 if TYPE_CHECKING:  # annotations only: the maths layer needs no configuration
     from mfi_drake.config.parameters import NavigatorParams
     from mfi_drake.config.vehicles import Vehicle
-
-GRAVITY = 9.81  # m/s², as in Drake's QuadrotorPlant
 
 
 def attitude_gains(

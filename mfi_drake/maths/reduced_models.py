@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mfi_drake.maths import fields
-from mfi_drake.maths.quadcopter import GRAVITY
+from mfi_drake.maths.constants import GRAVITY
 
 if TYPE_CHECKING:  # annotations only: the maths layer needs no configuration
     from mfi_drake.config.parameters import NavigatorParams

@@ -10,7 +10,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.flight.fleet import check_one_integrator
 from mfi_drake.flight.methods import METHODS, Method, appearance
-from mfi_drake.flight.simulation import Flight, outcome, simulate
+from mfi_drake.flight.result import Flight, outcome
+from mfi_drake.flight.simulation import simulate
 from mfi_drake.world.validation import load_scenario
 
 PAPER_SCENARIOS = ["planar_wall", "three_spheres", "tree", "sharp_corner"]

@@ -7,7 +7,7 @@ head-on among the obstacles), every method on the same fields, on Dask
 like the sweep (`sweep.run_sweep` with `FLEET`). Each vehicle's reference
 is the shortest path of its own start and goal among the obstacles.
 
-A field's flight is the fleet's (`simulation.fly_fleet`): it ends at the
+A field's flight is the fleet's (`fleet_exchange.fly_fleet`): it ends at the
 first contact (with an obstacle or another vehicle) or once every vehicle
 rests at its goal. Its record: the fleet's outcome (success: every vehicle
 reached its goal, no contact), `vehicles_succeeded`, the vehicle–obstacle
@@ -26,18 +26,16 @@ import numpy as np
 
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.flight.diagram import vehicle_scenarios
-from mfi_drake.flight.simulation import outcome, simulate
+from mfi_drake.flight.result import outcome
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.studies.records import OUTCOMES, record_key
+from mfi_drake.studies.stats import median_interval, rate_cell, wilson_interval
 from mfi_drake.studies.sweep import (
-    OUTCOMES,
     SWEEP_ENDS,
     SweepConfig,
     Tasks,
     make_field,
-    median_interval,
-    rate_cell,
-    record_key,
     task_scenario,
-    wilson_interval,
 )
 from mfi_drake.world.fleets import random_pairs
 from mfi_drake.world.reference_path import reference_path

@@ -19,7 +19,7 @@ already there. A flight whose worker dies is flown again on another (the
 Dask scheduler reschedules it) and recorded once, when it finishes.
 
 A flight of a static scene with the sphere sensor and no faults ends once
-its vehicle has settled at the goal (`simulation.settles`,
+its vehicle has settled at the goal (`monitors.settles`,
 `settled_monitor`): the rest would be a hover, and its metrics differ from
 the whole duration's by the integrator's accuracy (sim_time and steps are
 those flown).
@@ -41,65 +41,39 @@ generated field on the client (e.g. switching on a `faults` block) and
 keys the records by `variant` too.
 """
 
-import contextlib
 import dataclasses
 import functools
 import hashlib
-import json
-import logging
-import math
 import os
 import sys
-import time
-import zlib
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field, fields, replace
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
 from mfi_drake.config.dynamic import moves
-from mfi_drake.config.faults import Faults
-from mfi_drake.config.scenario import (
-    DepthCamera,
-    Scenario,
-    SphereSensor,
-    layer,
-    scenario_from_yaml,
-    scenario_to_yaml,
-)
+from mfi_drake.config.scenario import DepthCamera, Scenario, SphereSensor
+from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.fleet import check_one_integrator
-from mfi_drake.flight.methods import METHODS, MethodError, import_field, resolve_method
-from mfi_drake.flight.simulation import OUTCOMES as FLIGHT_OUTCOMES
-from mfi_drake.flight.simulation import outcome, simulate
+from mfi_drake.flight.methods import METHODS, resolve_method
+from mfi_drake.flight.result import outcome
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.studies.cluster import Progress, Task, run_tasks
+from mfi_drake.studies.records import (
+    FlightKey,
+    append_record,
+    read_results,
+    record_key,
+)
+from mfi_drake.studies.stats import group_stats, summary_table
 from mfi_drake.world import generator
 from mfi_drake.world.reference_path import Clearance, reference_path
 from mfi_drake.world.validation import validate_scenario
 
-Z_95 = 1.959964  # two-sided 95 % normal quantile
 SENSORS = {"sphere": SphereSensor, "depth": DepthCamera}
-
-
-class FlightKey(NamedTuple):
-    """What identifies a flight in results.jsonl."""
-
-    variant: str
-    sensor: str
-    density: float
-    seed: int
-    index: int
-    method: str
-
-    @property
-    def field(self) -> tuple:
-        """The field's part of the key (all but the method)."""
-        return self[:5]
-
-
-KEY_FIELDS = FlightKey._fields
-OUTCOMES = (*FLIGHT_OUTCOMES, "error")  # error: the simulation raised
 
 
 @dataclass
@@ -156,7 +130,7 @@ def field_reference(scenario_yaml: str) -> dict:
 
 
 # How a sweep (and `tune`) flies a field: ended once its outcome is known,
-# settled at the goal or in contact (`simulation.fly`).
+# settled at the goal or in contact (`simulator.fly`).
 SWEEP_ENDS = {"until_settled": True, "stop_at_contact": True}
 
 
@@ -185,94 +159,6 @@ def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
     return record | result | {k: m[k] for k in keep}
 
 
-# --- results file ---------------------------------------------------------------
-def record_key(record: dict) -> FlightKey:
-    return FlightKey(*(record[k] for k in KEY_FIELDS))
-
-
-def read_results(path: str) -> list[dict]:
-    """The complete records in `path`; a trailing partial line (a kill in the
-    middle of a write) is cut off the file."""
-    if not os.path.exists(path):
-        return []
-    with open(path, "rb") as f:
-        data = f.read()
-    end = data.rfind(b"\n") + 1
-    if end < len(data):
-        os.truncate(path, end)
-    return [json.loads(line) for line in data[:end].splitlines() if line.strip()]
-
-
-def append_record(f, record: dict) -> None:
-    """One complete line, on disk before this returns."""
-    f.write(json.dumps(record, allow_nan=False) + "\n")
-    f.flush()
-    os.fsync(f.fileno())
-
-
-# --- statistics -----------------------------------------------------------------
-def wilson_interval(k: int, n: int, z: float = Z_95) -> list[float] | None:
-    """Wilson score interval of a binomial proportion k/n."""
-    if n == 0:
-        return None
-    p = k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    # min/max: at k = 0 or n rounding may put the end a hair inside p.
-    return [max(0.0, min(p, centre - half)), min(1.0, max(p, centre + half))]
-
-
-def median_interval(values, z: float = Z_95) -> list[float] | None:
-    """Distribution-free ~95 % interval of the median: the order statistics of
-    ranks n/2 ∓ z√n/2 (normal approximation of the binomial ranks)."""
-    x = np.sort(np.asarray(values, float))
-    n = len(x)
-    if n == 0:
-        return None
-    lo = max(1, math.floor(n / 2 - z * math.sqrt(n) / 2))
-    hi = min(n, math.ceil(1 + n / 2 + z * math.sqrt(n) / 2))
-    return [float(x[lo - 1]), float(x[hi - 1])]
-
-
-def _median(values) -> float | None:
-    return float(np.median(values)) if len(values) else None
-
-
-def group_stats(records: list[dict]) -> dict:
-    """Rates with intervals and the path-ratio and convergence statistics."""
-    n = len(records)
-    out: dict = {"n": n}
-    for kind in OUTCOMES:
-        k = sum(r["outcome"] == kind for r in records)
-        out[f"{kind}_rate"] = k / n if n else None
-        out[f"{kind}_rate_ci95"] = wilson_interval(k, n)
-    ok = [r for r in records if r["outcome"] == "success"]
-    ratios = [r["path_ratio"] for r in ok if r["path_ratio"] is not None]
-    out["median_path_ratio"] = _median(ratios)
-    out["median_path_ratio_ci95"] = median_interval(ratios)
-    out["p90_path_ratio"] = float(np.percentile(ratios, 90)) if ratios else None
-    out["median_convergence_time"] = _median([r["convergence_time"] for r in ok])
-    # Fields whose straight start–goal line is clear of the grown obstacles:
-    # there the shortest path is the line, so any detour is the method's.
-    clear = [
-        r["path_ratio"]
-        for r in ok
-        if r["path_ratio"] is not None and r["blocked_fraction"] == 0.0
-    ]
-    out["clear_line_flights"] = len(clear)
-    out["median_path_ratio_clear_line"] = _median(clear)
-    refs = [
-        r["reference_length"] / r["straight_length"]
-        for r in records
-        if r["reference_length"]
-    ]
-    out["median_reference_detour"] = _median(refs)
-    blocked = [r["blocked_fraction"] for r in records]
-    out["line_blocked_fields"] = float(np.mean(np.array(blocked) > 0)) if n else None
-    out["mean_blocked_fraction"] = float(np.mean(blocked)) if n else None
-    return out
-
-
 def summarize(config: SweepConfig, records: list[dict]) -> dict:
     """summary.json: per method, all densities pooled and by density."""
     wanted = set(config.flight_keys())
@@ -292,75 +178,6 @@ def summarize(config: SweepConfig, records: list[dict]) -> dict:
         "flights": len(records),
         "methods": methods,
     }
-
-
-def rate_cell(stats: dict, outcome: str) -> str:
-    """ "rate [low, high]" of an outcome (95 % Wilson interval), "–" if none."""
-    rate, ci = stats[f"{outcome}_rate"], stats[f"{outcome}_rate_ci95"]
-    if rate is None:
-        return "–"
-    return f"{rate:.2f} [{ci[0]:.2f}, {ci[1]:.2f}]"
-
-
-def _num(value, digits: int = 2) -> str:
-    return "–" if value is None else f"{value:.{digits}f}"
-
-
-def summary_table(summary: dict) -> str:
-    """A Markdown table: one row per method and density."""
-    lines = [
-        "| method | density [1/m³] | flights | success [95% CI] | collision [95% CI] "
-        "| timeout [95% CI] | median path ratio [95% CI] | p90 path ratio "
-        "| median path ratio, clear line (fields) | median convergence time [s] |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for method, pooled in summary["methods"].items():
-        for density, s in pooled["by_density"].items():
-            ci = s["median_path_ratio_ci95"]
-            median = _num(s["median_path_ratio"], 3)
-            if ci:
-                median += f" [{ci[0]:.3f}, {ci[1]:.3f}]"
-            errors = (
-                f" ({s['error_rate'] * s['n']:.0f} errors)" if s["error_rate"] else ""
-            )
-            lines.append(
-                f"| {method} | {density} | {s['n']}{errors} "
-                f"| {rate_cell(s, 'success')} | {rate_cell(s, 'collision')} "
-                f"| {rate_cell(s, 'timeout')} | {median} "
-                f"| {_num(s['p90_path_ratio'], 3)} "
-                f"| {_num(s.get('median_path_ratio_clear_line'), 3)} "
-                f"({s.get('clear_line_flights', 0)}) "
-                f"| {_num(s['median_convergence_time'], 1)} |"
-            )
-    return "\n".join(lines)
-
-
-# --- the run ----------------------------------------------------------------------
-class Progress:
-    """A text progress bar on stderr (a line per 10 % when not a terminal)."""
-
-    def __init__(self, total: int, stream=sys.stderr):
-        self.total, self.done, self.stream = total, 0, stream
-        self.start = time.monotonic()
-        self._tty = stream.isatty()
-        self._shown = -1
-
-    def step(self, note: str = "") -> None:
-        self.done += 1
-        tenth = 10 * self.done // max(self.total, 1)
-        if not self._tty and tenth == self._shown and self.done < self.total:
-            return
-        self._shown = tenth
-        elapsed = time.monotonic() - self.start
-        eta = elapsed / self.done * (self.total - self.done)
-        filled = 30 * self.done // max(self.total, 1)
-        line = (
-            f"[{'#' * filled}{'.' * (30 - filled)}] {self.done}/{self.total} flights, "
-            f"{elapsed:.0f} s, ~{eta:.0f} s left {note}"
-        )
-        end = "\r" if self._tty and self.done < self.total else "\n"
-        self.stream.write(("\r" if self._tty else "") + line + end)
-        self.stream.flush()
 
 
 @dataclass
@@ -384,228 +201,6 @@ def _failure_path(config: SweepConfig, key: FlightKey, scenario: Scenario) -> st
     return os.path.join(config.out, "failures", f"{name}.yaml")
 
 
-class ClusterError(RuntimeError):
-    """The cluster cannot fly the tasks (unreachable or refused, no workers,
-    a user's field that a worker cannot import); one line for the user."""
-
-
-def require_dask() -> None:
-    """Raises ClusterError, before anything is flown, where Dask distributed
-    (the `sweep` extra) is not installed."""
-    try:
-        import distributed  # noqa: F401
-    except ImportError:
-        raise ClusterError(
-            "sweep and tune need Dask distributed: pip install 'mfi_drake[sweep]'"
-        ) from None
-
-
-WORKER_WAIT = 60.0  # s a run waits for a worker, at its start or when all left
-
-
-def _one_line(e: BaseException) -> str:
-    return f"{type(e).__name__}: {' '.join(str(e).split())}"[:300]
-
-
-@contextlib.contextmanager
-def dask_client(
-    workers: int, scheduler: str | None, methods: Sequence[str] = ()
-) -> Iterator:
-    """A Dask client of the cluster at `scheduler` (tcp:// or tls://, the
-    latter with the certificates of Dask's own configuration:
-    distributed.comm.tls.*, in a config file or DASK_DISTRIBUTED__COMM__TLS__*
-    variables), the client's own modules of `methods` shipped to its workers
-    (`ship_modules`); else of a LocalCluster of `workers` single-threaded
-    worker processes. Closed on exit. Raises ClusterError if the scheduler
-    cannot be reached or refuses the client.
-
-    The local workers are forked from a fork server that has imported this
-    module (Drake, the simulation, the reference path) once: a spawned
-    worker starts a fresh interpreter and imports all of it, seconds per
-    worker on a shared machine, where a fork takes milliseconds. The fork
-    server is single-threaded, so forking it is safe, unlike forking this
-    process."""
-    import dask
-    from distributed import Client, LocalCluster
-    from distributed.utils import get_mp_context
-
-    if scheduler:
-        try:
-            client = Client(scheduler, timeout=10)
-        except (OSError, TypeError, ValueError) as e:
-            why = f"({_one_line(e)})"
-            if isinstance(e, TypeError) and scheduler.startswith("tls://"):
-                why = (  # Dask's words: "TLS expects a `ssl_context` argument"
-                    "without a certificate: set Dask's distributed.comm.tls.ca-file, "
-                    ".client.cert and .client.key (or DASK_DISTRIBUTED__COMM__TLS__*)"
-                )
-            raise ClusterError(
-                f"--scheduler = {scheduler!r}: cannot connect {why}"
-            ) from None
-        with client:
-            ship_modules(client, methods)
-            yield client
-        return
-    with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
-        get_mp_context().set_forkserver_preload(["distributed", __name__])
-        cluster = LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",  # a free port: no clash with other clusters
-            silence_logs=logging.ERROR,
-        )
-    with cluster, Client(cluster) as client:
-        yield client
-
-
-def _user_modules(methods: Sequence[str]) -> Iterator[str]:
-    """The top-level modules of the MODULE:NAME methods."""
-    for method in methods:
-        if method not in METHODS:
-            yield method.partition(":")[0].partition(".")[0]
-
-
-def ship_modules(client, methods: Sequence[str]) -> None:
-    """Ships the client's own module of each MODULE:NAME method to every
-    worker of the cluster (a Dask worker plugin, so to those joining later
-    too): a .py file, or its top-level package as a zip, written into the
-    worker's directory and put on its import path. An installed module
-    (under site-packages) and this package are not shipped: the workers
-    have their own. Importing is left to the tasks, and to `run_tasks`'
-    check, which names a worker where it fails."""
-    import importlib
-    import shutil
-    import tempfile
-
-    from distributed import WorkerPlugin
-
-    class ShipModule(WorkerPlugin):
-        def __init__(self, filename: str, data: bytes):
-            self.filename, self.data = filename, data
-
-        def setup(self, worker) -> None:
-            path = os.path.join(worker.local_directory, self.filename)
-            with open(path, "wb") as f:
-                f.write(self.data)
-            entry = path if path.endswith(".zip") else worker.local_directory
-            if entry not in sys.path:
-                sys.path.insert(0, entry)
-            importlib.invalidate_caches()
-
-    for name in dict.fromkeys(_user_modules(methods)):
-        path = getattr(importlib.import_module(name), "__file__", None) or ""
-        parts = set(os.path.normpath(path).split(os.sep))
-        if (
-            not path
-            or name == "mfi_drake"
-            or parts & {"site-packages", "dist-packages"}
-        ):
-            continue
-        with tempfile.TemporaryDirectory() as tmp:
-            if os.path.basename(path) == "__init__.py":
-                package = os.path.dirname(path)
-                path = shutil.make_archive(
-                    os.path.join(tmp, name), "zip", os.path.dirname(package), name
-                )
-            with open(path, "rb") as f:
-                plugin = ShipModule(os.path.basename(path), f.read())
-        client.register_plugin(plugin, name=f"mfi-drake-ship-{name}")
-
-
-def _import_problem(methods: Sequence[str]) -> str | None:
-    """Run on a worker: the first MODULE:NAME that does not import there."""
-    for method in methods:
-        try:
-            import_field(method)
-        except MethodError as e:
-            return str(e)
-    return None
-
-
-def _wait_for_workers(client, why: str) -> None:
-    try:
-        client.wait_for_workers(1, timeout=WORKER_WAIT)
-    except TimeoutError:
-        raise ClusterError(
-            f"the Dask cluster has no workers: {why} within {WORKER_WAIT:g} s"
-        ) from None
-
-
-@dataclass(frozen=True)
-class Task:
-    """A function to run on the cluster: `args` may hold other Tasks, each
-    replaced by its result (run once per key)."""
-
-    key: str  # Dask's key: names the task, the same on a rerun
-    function: Callable
-    args: tuple
-
-
-def run_tasks(
-    client,
-    tasks: Sequence[tuple[object, Task]],
-    on_result: Callable[[object, dict], None],
-    methods: Sequence[str] = (),
-    progress: Progress | None = None,
-) -> list[str]:
-    """Runs every (tag, task) on the cluster and calls on_result(tag, result)
-    once for each as it finishes; returns a line for each task the cluster
-    lost (its worker died `distributed.scheduler.allowed-failures` times,
-    or a MODULE:NAME that its worker could not import): a rerun retries it.
-
-    First waits up to WORKER_WAIT for a worker and checks that every
-    MODULE:NAME of `methods` imports on every worker (ClusterError naming
-    the module and the worker if not). A task whose worker dies is run
-    again on another by the scheduler. If every worker has gone, it waits
-    WORKER_WAIT for one to join, then raises ClusterError (the results
-    handed to on_result stay)."""
-    from distributed import as_completed
-
-    _wait_for_workers(client, "none joined")
-    if user := [m for m in methods if m not in METHODS]:
-        # A worker that dies meanwhile returns its error: it flies nothing.
-        checks = client.run(_import_problem, user, on_error="return")
-        for worker, problem in checks.items():
-            if isinstance(problem, str):
-                raise ClusterError(f"--methods: {problem} on worker {worker}")
-    submitted = {}
-
-    def submit(task: Task):
-        if task.key not in submitted:
-            args = [submit(a) if isinstance(a, Task) else a for a in task.args]
-            submitted[task.key] = client.submit(task.function, *args, key=task.key)
-        return submitted[task.key]
-
-    futures = {submit(task): tag for tag, task in tasks}
-    # The scheduler keeps a dependency while a task needs it; a finished
-    # task's result is let go with its future, as soon as it is handed on.
-    submitted.clear()
-    lost = []
-    pending = as_completed(futures)
-    idle = time.monotonic()
-    while not pending.is_empty():
-        batch = pending.next_batch(block=False)
-        if not batch:
-            if time.monotonic() - idle > 5.0 and not client.nthreads():
-                _wait_for_workers(client, "all left, and none joined")
-                idle = time.monotonic()
-            time.sleep(0.1)
-            continue
-        idle = time.monotonic()
-        for future in batch:
-            tag = futures.pop(future)
-            try:
-                result = future.result()
-            except Exception as e:  # the cluster lost it (a killed worker, ...)
-                lost.append(f"{tag}: {_one_line(e)}")
-                if progress is not None:
-                    progress.step("(lost)")
-                continue
-            on_result(tag, result)
-    return lost
-
-
 def make_field(config: SweepConfig, density: float, index: int) -> Scenario:
     scenario = generator.random_field(
         config.seed, index, density, sensor=SENSORS[config.sensor]()
@@ -619,16 +214,6 @@ def make_field(config: SweepConfig, density: float, index: int) -> Scenario:
             scenario, config.seed, index, config.moving, config.obstacle_speed
         )
     return scenario
-
-
-def goal_variant(gap: float | None) -> str:
-    """A name for a sweep variant of goals near a surface ("" for none)."""
-    return "" if gap is None else f"goal_clearance={gap:g}"
-
-
-def motion_variant(share: float, speed: float) -> str:
-    """A name for a sweep variant of moving obstacles ("" for none)."""
-    return f"moving={share:g},obstacle_speed={speed:g}" if share > 0.0 else ""
 
 
 class Tasks(NamedTuple):
@@ -735,33 +320,6 @@ def run_sweep(
     )
 
 
-# --- faults flown on every field ------------------------------------------------
-def fault_variant(faults: Faults) -> str:
-    """A name for a sweep variant: the fields that differ from the defaults,
-    as "field=value" joined by commas ("" for no faults)."""
-    default = Faults()
-    return ",".join(
-        f"{f.name}={getattr(faults, f.name)!r}"
-        for f in fields(faults)
-        if getattr(faults, f.name) != getattr(default, f.name)
-    )
-
-
-def with_faults(scenario, faults: Faults):
-    """A copy of `scenario` with `faults`, the seed offset by a CRC of the
-    scenario's name so that the fields of a sweep draw independent noise."""
-    seed = faults.seed + zlib.crc32(scenario.name.encode())
-    return replace(scenario, faults=replace(faults, seed=seed))
-
-
-def with_overrides(scenario: Scenario, overrides: list[tuple[str, str]]) -> Scenario:
-    """`scenario` with each (where, YAML text) override layered on it, as
-    `mfi-drake run --set/--override` layers them on a file."""
-    for where, text in overrides:
-        scenario = layer(scenario, text, where)
-    return scenario
-
-
 def field_to_fly(
     config: SweepConfig,
     tasks: Tasks,
@@ -776,45 +334,3 @@ def field_to_fly(
     if modify is None:
         return scenario
     return generator.self_contained(modify(scenario))
-
-
-def layered(
-    scenario: Scenario,
-    overrides: list[tuple[str, str]] = (),
-    faults: Faults | None = None,
-) -> Scenario:
-    """A field with a command's overrides layered on it, then its faults."""
-    scenario = with_overrides(scenario, overrides)
-    return scenario if faults is None else with_faults(scenario, faults)
-
-
-def variant_name(
-    overrides: list[tuple[str, str]] = (),
-    faults: Faults | None = None,
-    motion: str = "",
-    goal: str = "",
-) -> str:
-    """The sweep variant of a motion (`motion_variant`), goals near a
-    surface (`goal_variant`), overrides and faults: their names joined by
-    commas, "" for none of them."""
-    parts = [
-        motion,
-        goal,
-        override_variant(overrides),
-        fault_variant(faults) if faults is not None else "",
-    ]
-    return ",".join(part for part in parts if part)
-
-
-def override_variant(overrides: list[tuple[str, str]]) -> str:
-    """A name for a sweep variant of overrides: each --set text as given, each
-    file as its name and a hash of its text (so a changed file is a new
-    variant)."""
-    parts = []
-    for where, text in overrides:
-        if where.startswith("--set"):
-            parts.append(" ".join(text.split()))
-        else:
-            digest = hashlib.sha1(text.encode()).hexdigest()[:8]
-            parts.append(f"{os.path.basename(where)}@{digest}")
-    return ";".join(parts)

@@ -29,9 +29,12 @@ The protocol, the same for every method and fixed before any result is seen:
    which run, compare and sweep accept with `--override`; each method's
    gains live in its own scenario field, so one file serves every method.
 5. Held-out evaluation: the winners flown on fields of a seed that is not a
-   training seed (refused otherwise), through the sweep.
+   training seed (refused otherwise), through the sweep (`held_out_sweep`).
 
-Flights run on Dask like the sweep (`sweep.run_tasks`, on a local or a
+From Python, `tune_held_out` runs all five steps; `mfi-drake tune` runs
+`tune`, then `held_out_sweep` where a held-out seed is given.
+
+Flights run on Dask like the sweep (`cluster.run_tasks`, on a local or a
 remote cluster; every field self-contained, the paper's scenarios with
 their meshes inline) and are appended to DIR/tune.jsonl as they finish; a
 rerun with the same arguments flies only what is missing (the candidates
@@ -44,27 +47,28 @@ import json
 import math
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
-from mfi_drake.config.scenario import Scenario, scenario_to_yaml
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.scenario_yaml import read_override, scenario_to_yaml
 from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.methods import Gain, Method, resolve_method
+from mfi_drake.studies.cluster import ClusterError, Task, run_tasks
 from mfi_drake.studies.compare import PAPER_SCENARIOS
+from mfi_drake.studies.records import append_record, read_results
 from mfi_drake.studies.sweep import (
-    ClusterError,
     SweepConfig,
-    Task,
-    append_record,
+    SweepRun,
     field_reference,
     fly_field,
     make_field,
-    read_results,
-    run_tasks,
-    with_overrides,
+    run_sweep,
 )
+from mfi_drake.studies.variants import override_variant, with_overrides
 from mfi_drake.world.generator import self_contained, set_in_motion, wall_field
 from mfi_drake.world.validation import load_scenario
 
@@ -73,6 +77,9 @@ JITTER_STEP = 1e-3  # [m] how far a jittered copy of a field starts from its own
 JITTER_AXES = ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))
 # Fewest candidates per method: the current gains and two Latin-hypercube points.
 MIN_CANDIDATES = 3
+# The held-out sweep's fields per density, and its densities (step 5).
+HELD_OUT_N = 200
+HELD_OUT_DENSITIES = (0.05, 0.1, 0.2)
 
 
 class TuneError(ValueError):
@@ -305,6 +312,53 @@ def tune(
     return best
 
 
+def held_out_sweep(
+    config: TuneConfig,
+    client,
+    n: int = HELD_OUT_N,
+    densities: Sequence[float] = HELD_OUT_DENSITIES,
+    progress_stream=sys.stderr,
+) -> SweepRun:
+    """Step 5 of the protocol: the winners of DIR/tuned.yaml (written by
+    `tune`) flown by every method of `config` on `n` random fields per
+    density of `densities` at `config.held_out_seed`, through the sweep
+    (`run_sweep`, its files in DIR/held_out/, its records keyed by the
+    override's variant). Raises TuneError where the held-out seed is None
+    or a training seed."""
+    config.check()
+    if config.held_out_seed is None:
+        raise TuneError("held_out_seed = None: no held-out fields to fly")
+    tuned = read_override(os.path.join(config.out, "tuned.yaml"))
+    held_out = SweepConfig(
+        n=n,
+        seed=config.held_out_seed,
+        methods=list(config.methods),
+        densities=list(dict.fromkeys(densities)),
+        out=os.path.join(config.out, "held_out"),
+        variant=override_variant([tuned]),
+    )
+    modify = partial(with_overrides, overrides=[tuned])
+    return run_sweep(held_out, client, modify, progress_stream)
+
+
+def tune_held_out(
+    config: TuneConfig,
+    client,
+    n: int = HELD_OUT_N,
+    densities: Sequence[float] = HELD_OUT_DENSITIES,
+    progress_stream=sys.stderr,
+) -> tuple[dict[str, Candidate], SweepRun | None]:
+    """The whole protocol (the module docstring) on the Dask `client`:
+    `tune`, then, where `config.held_out_seed` is set, `held_out_sweep` of
+    `n` fields per density of `densities`. Returns (the best candidate of
+    each method, the held-out sweep's run or None); the files are those of
+    `mfi-drake tune` with the same arguments."""
+    best = tune(config, client, progress_stream)
+    if config.held_out_seed is None:
+        return best, None
+    return best, held_out_sweep(config, client, n, densities, progress_stream)
+
+
 def _tune_method(
     config: TuneConfig,
     client,
@@ -388,7 +442,7 @@ def _evaluate(client, method, batch, fields, texts, references, done, record):
 
 
 def _run(client, tasks, on_result, methods) -> None:
-    """`sweep.run_tasks`; a lost task stops the tuning (a rerun resumes)."""
+    """`cluster.run_tasks`; a lost task stops the tuning (a rerun resumes)."""
     lost = run_tasks(client, tasks, on_result, methods)
     if lost:
         raise ClusterError(

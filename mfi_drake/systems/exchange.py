@@ -2,7 +2,7 @@
 (docs/fleets.md).
 
 Each vehicle of a fleet is flown by its own single-vehicle diagram and
-Simulator (`flight.simulation.fly_fleet`); every 1/exchange_hz s the
+Simulator (`flight.fleet_exchange.fly_fleet`); every 1/exchange_hz s the
 vehicles exchange their positions and velocities, as real vehicles would by
 radio. Between exchanges each vehicle places the others where the last
 message puts them, moving on at the velocity it gave (a linear

@@ -56,6 +56,7 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_text
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.shapes import SHAPES, convex_points, mesh_file
+from mfi_drake.world.world_files import with_files
 
 # The kinds in the order a field draws them from (the table's order).
 SHAPE_KINDS = tuple(SHAPES.values())
@@ -323,9 +324,12 @@ def set_in_motion(
 
 
 def self_contained(scenario: sc.Scenario) -> sc.Scenario:
-    """`scenario` with every convex mesh file's vertices inline (Drake flies
-    the hull of either, so the geometry is the same): it then reads no file,
-    and flies on any machine."""
+    """`scenario` with its world file's obstacles and its meshes' convex
+    pieces among its own (`world_files.with_files`) and every convex mesh
+    file's vertices inline
+    (Drake flies the hull of either, so the geometry is the same): it then
+    reads no file, and flies on any machine."""
+    scenario = with_files(scenario, scenario.name)
     obstacles = []
     for obstacle in scenario.obstacles:
         shape = obstacle.shape

@@ -39,6 +39,13 @@ def read_obj(path: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array(vertices), np.array(faces, dtype=int).reshape(-1, 3)
 
 
+def enclosed_volume(vertices: np.ndarray, triangles: np.ndarray) -> float:
+    """The volume [m³] a closed mesh of outward-facing triangles encloses
+    (the divergence theorem: a sum of signed tetrahedra)."""
+    a, b, c = (np.asarray(vertices)[triangles[:, k]] for k in range(3))
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+
 def write_obj(path: str, vertices: np.ndarray, triangles: np.ndarray) -> None:
     """Writes an OBJ file atomically (temporary name, then rename)."""
     lines = [f"v {v[0]:.6f} {v[1]:.6f} {v[2]:.6f}\n" for v in vertices]
@@ -187,6 +194,40 @@ def prism(polygon: np.ndarray, height: float) -> tuple[np.ndarray, np.ndarray]:
     return np.vstack([bottom, top]), np.array(tris)
 
 
+def cells_mesh(cells: np.ndarray, size) -> tuple[np.ndarray, np.ndarray]:
+    """The closed surface of a union of grid cells: `cells` (nx, ny, nz) of
+    booleans, each cell `size` (3,) m, the grid's corner at the origin; each
+    face between a filled cell and an empty one (or the outside) is two
+    triangles facing out. A non-convex solid (a U, an L, a building with a
+    door) as one watertight mesh."""
+    filled = np.pad(np.asarray(cells, bool), 1)
+    index: dict[tuple, int] = {}
+    triangles = []
+
+    def corner(point) -> int:
+        return index.setdefault(tuple(point), len(index))
+
+    for axis in range(3):
+        u, v = (axis + 1) % 3, (axis + 2) % 3
+        step = np.eye(3, dtype=int)[axis]
+        for sign in (1, -1):
+            # Cells whose neighbour along `sign` × axis is empty.
+            beside = np.roll(filled, -sign, axis=axis)
+            for cell in np.argwhere(filled & ~beside):
+                base = cell - 1 + (step if sign > 0 else 0)
+                quad = [base, base + np.eye(3, dtype=int)[u]]
+                quad += [
+                    quad[1] + np.eye(3, dtype=int)[v],
+                    base + np.eye(3, dtype=int)[v],
+                ]
+                a, b, c, d = (corner(q) for q in quad)
+                # Counter-clockwise seen from outside: (u, v, axis) is right-handed.
+                tris = [[a, b, c], [a, c, d]] if sign > 0 else [[a, c, b], [a, d, c]]
+                triangles += tris
+    vertices = np.array(list(index), dtype=float) * np.asarray(size, float)
+    return vertices, np.array(triangles, dtype=int)
+
+
 def write_scenario_meshes(directory: str) -> list[str]:
     """Regenerates the convex meshes the shipped scenarios use."""
     os.makedirs(directory, exist_ok=True)
@@ -196,7 +237,19 @@ def write_scenario_meshes(directory: str) -> list[str]:
     wedge = os.path.join(directory, "wedge.obj")
     # A 3 m tall prism whose sharp 39° edge points along −x.
     write_obj(wedge, *prism(np.array([[0.0, 0.0], [2.0, -0.7], [2.0, 0.7]]), 3.0))
-    return [canopy, wedge]
+    building = os.path.join(directory, "building.obj")
+    write_obj(building, *building_mesh())
+    return [canopy, wedge, building]
+
+
+def building_mesh() -> tuple[np.ndarray, np.ndarray]:
+    """A 4 × 4 × 3 m hut, corner at the origin: 0.5 m walls and roof around
+    a room, a door 1 m wide and 2 m tall in its wall at x = 0 (a non-convex
+    mesh, flown as its convex pieces: `!Mesh`)."""
+    cells = np.ones((8, 8, 6), bool)
+    cells[1:-1, 1:-1, :-1] = False  # the room
+    cells[0, 3:5, :4] = False  # the door
+    return cells_mesh(cells, [0.5, 0.5, 0.5])
 
 
 if __name__ == "__main__":

@@ -54,6 +54,12 @@ class _HalfSpaceNotice(logging.Filter):
 _HALF_SPACE_NOTICE = _HalfSpaceNotice()
 
 
+def quiet_half_spaces() -> None:
+    """Drake's notice about half spaces is not shown (a second call adds
+    nothing: a logger holds a filter once)."""
+    logging.getLogger("drake").addFilter(_HALF_SPACE_NOTICE)
+
+
 def register_obstacles(
     scene_graph: SceneGraph, scenario: sc.Scenario
 ) -> ObstacleFrames:
@@ -83,7 +89,7 @@ def register_obstacles(
         else:
             scene_graph.RegisterGeometry(source, frame, instance)
     if scenario.ground is not None:
-        logging.getLogger("drake").addFilter(_HALF_SPACE_NOTICE)
+        quiet_half_spaces()
         ground = GeometryInstance(
             HalfSpace.MakePose([0.0, 0.0, 1.0], [0.0, 0.0, scenario.ground.height]),
             HalfSpace(),
@@ -132,17 +138,41 @@ def obstacle_distances(
     (`times`, one per point; default t = 0); inf when nothing is within
     `within` (SceneGraph's broadphase then skips the far obstacles, which is
     what makes a threshold cheap)."""
+    return [
+        np.inf if r is None else r.distance
+        for _, r in _nearest(scenario, points, within, times)
+    ]
+
+
+def closest_obstacles(
+    scenario: sc.Scenario, points
+) -> list[tuple[float, sc.Obstacle | None]]:
+    """As `obstacle_distances` at t = 0, with the obstacle each distance is
+    to (None: the ground), for errors that name it."""
+    out = []
+    for inspector, r in _nearest(scenario, points, np.inf, None):
+        if r is None:  # no obstacle, no ground
+            out.append((np.inf, None))
+            continue
+        name = inspector.GetName(r.id_G)  # "obstacle_<i>" or "ground"
+        index = name.removeprefix("obstacle_")
+        obstacle = scenario.obstacles[int(index)] if index != name else None
+        out.append((r.distance, obstacle))
+    return out
+
+
+def _nearest(scenario: sc.Scenario, points, within: float, times):
+    """(SceneGraph's inspector, the nearest SignedDistanceToPoint or None)
+    for each point, with the obstacles where they are at its time."""
     scene_graph = SceneGraph()
     frames = register_obstacles(scene_graph, scenario)
     context = scene_graph.CreateDefaultContext()
     port = scene_graph.get_query_output_port()
     frames.fix(scene_graph, context, 0.0)
     query = port.Eval(context)
-    out = []
     for k, p in enumerate(points):
         if frames.frames and times is not None:
             frames.fix(scene_graph, context, times[k])
             query = port.Eval(context)
         results = query.ComputeSignedDistanceToPoint(np.asarray(p, float), within)
-        out.append(min((r.distance for r in results), default=np.inf))
-    return out
+        yield query.inspector(), min(results, key=lambda r: r.distance, default=None)

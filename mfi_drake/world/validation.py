@@ -16,9 +16,12 @@ import numpy as np
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
+from mfi_drake.config.scenario_yaml import layered_name, parse_scenario
 from mfi_drake.config.vehicles import VEHICLES
-from mfi_drake.world.obstacles import obstacle_distances
-from mfi_drake.world.shapes import convex_points, mesh_file
+from mfi_drake.world.meshes import enclosed_volume, read_obj
+from mfi_drake.world.obstacles import closest_obstacles, obstacle_distances
+from mfi_drake.world.shapes import convex_points, shape_mesh
+from mfi_drake.world.world_files import with_files
 
 # [m] a goal's least room beyond the vehicle's collision radius: every
 # method's terminal approach (docs/goals.md) settles at a goal with at least
@@ -50,13 +53,53 @@ def _check_mesh(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
         name, value, path = "shape.file", shape.file, sc.mesh_path(scenario, shape)
         if not os.path.isfile(path):
             sc.fail(where, name, value, f"no such file ({path})")
-    try:
-        vertices = convex_points(shape, mesh_file(scenario, shape))
+    try:  # the file read once: its triangles tell whether it is convex
+        vertices, triangles = (
+            read_obj(path) if shape.file else (convex_points(shape, ""), None)
+        )
     except ValueError as e:
         sc.fail(where, name, value, str(e))
     centred = vertices - vertices.mean(axis=0)
     if len(vertices) < 4 or np.linalg.matrix_rank(centred, tol=1e-9) < 3:
         sc.fail(where, name, value, "needs 4+ non-coplanar vertices")
+    if triangles is not None:
+        _warn_if_not_convex(where, scenario, shape.file, vertices, triangles)
+
+
+# A mesh whose hull holds this much more than the mesh itself is not convex.
+NOT_CONVEX = 1.05
+
+
+def _warn_if_not_convex(
+    where: str, scenario: sc.Scenario, file: str, vertices, triangles
+) -> None:
+    """A `!Convex` file that is not convex flies its hull, filling its
+    notches: a ScenarioWarning, one line, says so and how to fly it."""
+    if _behind_every_face(vertices, triangles):  # convex: no hull to compute
+        return
+    volume = enclosed_volume(vertices, triangles)
+    hull = enclosed_volume(*shape_mesh(scenario, sc.Convex(vertices=vertices.tolist())))
+    if volume > 0.0 and hull > NOT_CONVEX * volume:
+        warnings.warn(
+            f"{where}: shape.file = {file!r}: not convex (its hull holds "
+            f"{hull / volume:.2f} times its volume), so !Convex flies the hull; "
+            f"!Mesh {{file: {file}}} flies its shape",
+            ScenarioWarning,
+            stacklevel=2,
+        )
+
+
+def _behind_every_face(vertices: np.ndarray, triangles: np.ndarray) -> bool:
+    """Whether no vertex lies in front of any face's plane (beyond a
+    billionth of the mesh's size): a closed mesh so is convex. A cheap
+    test that spares the convex shipped meshes computing a hull."""
+    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    lengths = np.linalg.norm(normals, axis=1)
+    keep = lengths > 0.0  # degenerate faces have no plane
+    normals = normals[keep] / lengths[keep, None]
+    heights = vertices @ normals.T - np.einsum("ij,ij->i", normals, a[keep])
+    return bool(heights.max(initial=0.0) <= 1e-9 * np.ptp(vertices))
 
 
 def validate_scenario(scenario: sc.Scenario, where: str) -> None:
@@ -79,25 +122,29 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
     )
     try:
         # Starts against every obstacle at t = 0, goals against the static ones.
-        distances = obstacle_distances(scenario, [p for n, p in ends if "start" in n])
-        distances += obstacle_distances(static, [p for n, p in ends if "goal" in n])
+        closest = closest_obstacles(scenario, [p for n, p in ends if "start" in n])
+        closest += closest_obstacles(static, [p for n, p in ends if "goal" in n])
     except RuntimeError as e:  # a mesh Drake cannot use
         raise sc.ScenarioError(f"{where}: obstacles: {str(e).splitlines()[0]}") from e
     ordered = [e for e in ends if "start" in e[0]] + [e for e in ends if "goal" in e[0]]
-    for (name, point), d in zip(ordered, distances, strict=True):
+    for (name, point), (d, obstacle) in zip(ordered, closest, strict=True):
         needed, words = _room(name, radius, d)
         if d < needed - ROUNDING:
-            sc.fail(
-                where,
-                name,
-                point,
-                f"is {d:.3f} m from an obstacle, closer than {words}",
-            )
+            sc.fail(where, name, point, _near(d, obstacle, words))
     if len(static.obstacles) < len(scenario.obstacles):
         for name, point in ends:
             if "goal" in name:
                 _check_goal_uncovered(where, scenario, name, point, radius)
     _check_apart(where, scenario, radius)
+
+
+def _near(distance: float, obstacle: sc.Obstacle | None, words: str) -> str:
+    """Why an end at `distance` from `obstacle` is refused: inside or near
+    it by its name, if it has one."""
+    what = obstacle.name if obstacle is not None and obstacle.name else ""
+    if what and distance < 0.0:
+        return f"is inside {what} ({-distance:.3f} m deep)"
+    return f"is {distance:.3f} m from {what or 'an obstacle'}, closer than {words}"
 
 
 def _room(name: str, radius: float, distance: float) -> tuple[float, str]:
@@ -175,8 +222,10 @@ def _check_apart(where: str, scenario: sc.Scenario, radius: float) -> None:
 
 def load_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> sc.Scenario:
     """Loads scenario file `path`, layers `overrides` on it ((where, YAML
-    text) pairs, see `config.scenario.parse_scenario`) and validates the
-    result; raises ScenarioError if it cannot be flown."""
-    scenario = sc.parse_scenario(path, overrides)
-    validate_scenario(scenario, sc.layered_name(path, overrides))
+    text) pairs, see `config.scenario_yaml.parse_scenario`) and validates the
+    result, its `world:` file and `!Mesh` shapes resolved into obstacles
+    (`world_files.with_files`); raises ScenarioError if it cannot be flown."""
+    where = layered_name(path, overrides)
+    scenario = with_files(parse_scenario(path, overrides), where)
+    validate_scenario(scenario, where)
     return scenario

@@ -13,7 +13,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import VEHICLES, Vehicle
 from mfi_drake.flight.analysis_diagram import build_analysis_diagram, hover_state
-from mfi_drake.flight.simulation import Flight
+from mfi_drake.flight.result import Flight
 from mfi_drake.maths import fields
 from mfi_drake.maths.quadcopter import attitude_gains
 from mfi_drake.maths.reduced_models import heading_error, point_mass_heading

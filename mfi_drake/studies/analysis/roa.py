@@ -23,7 +23,8 @@ from mfi_drake.flight.analysis_diagram import (
     hover_state,
 )
 from mfi_drake.maths import fields
-from mfi_drake.maths.quadcopter import GRAVITY, attitude_gains
+from mfi_drake.maths.constants import GRAVITY
+from mfi_drake.maths.quadcopter import attitude_gains
 from mfi_drake.maths.reduced_models import reduced_terminal_dynamics, rk4_step
 
 

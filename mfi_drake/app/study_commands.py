@@ -1,0 +1,470 @@
+"""The commands of studies on random fields: `sweep`, `scene` and `tune`,
+each its parser (`add_sweep`, ...) and what it does (`cmd_sweep`, ...):
+check the arguments, hand them to `studies` (the sweep, the fleet sweep,
+the tuning protocol), print and write the results."""
+
+import json
+import math
+import os
+import sys
+from collections.abc import Callable
+from functools import partial
+
+from mfi_drake.app.arguments import (
+    UsageError,
+    add_field_count,
+    add_motion,
+    add_overrides,
+    add_parser,
+    add_random_field,
+    add_workers,
+    at_least,
+    check_field_numbers,
+    check_held_out_numbers,
+    check_motion_numbers,
+    check_sweep_numbers,
+    exit_statuses,
+    json_safe,
+    overrides,
+    parse_methods,
+)
+from mfi_drake.config.scenario_yaml import layered_name, read_faults
+from mfi_drake.flight.methods import METHODS
+from mfi_drake.world.validation import validate_scenario
+
+
+def sweep_config(args, **more):
+    """(config, tasks) of the random fields the arguments name (seed,
+    sensor, vehicles, motion, goal clearance; checked here): a fleet's
+    (`studies.fleet_sweep`) where --vehicles > 1. `more`: further fields of
+    the configuration."""
+    from mfi_drake.studies.fleet_sweep import FLEET, FleetSweepConfig
+    from mfi_drake.studies.sweep import SINGLE, SweepConfig
+
+    check_field_numbers(args)
+    check_motion_numbers(args)
+    at_least("--vehicles", args.vehicles, 1)
+    fleet = args.vehicles > 1
+    if fleet and args.goal_clearance is not None:
+        # random_pairs draws a fleet's goals anew, away from that obstacle.
+        raise UsageError(
+            f"--goal-clearance = {args.goal_clearance}: places an obstacle near "
+            "the one vehicle's goal; not with --vehicles > 1 (a fleet's goals "
+            "are drawn anew)"
+        )
+    config = (FleetSweepConfig if fleet else SweepConfig)(
+        **({"vehicles": args.vehicles} if fleet else {}),
+        seed=args.seed,
+        sensor=args.sensor,
+        moving=args.moving,
+        obstacle_speed=args.obstacle_speed,
+        goal_clearance=args.goal_clearance,
+        **more,
+    )
+    return config, (FLEET if fleet else SINGLE)
+
+
+# Each kind of `scene` and the options that shape it (the rest: every kind).
+SCENE_OPTIONS = {
+    "circle": ("radius", "height", "duration"),
+    "streams": ("length", "spacing", "height"),
+    "field": (
+        "seed",
+        "density",
+        "index",
+        "moving",
+        "obstacle_speed",
+        "goal_clearance",
+    ),
+}
+
+
+def cmd_scene(default_of: Callable[[str], object], args) -> int:
+    """`default_of`: the scene parser's default of an option (its get_default),
+    which tells an option given from one left alone."""
+    from dataclasses import replace
+
+    from mfi_drake.studies.sweep import SENSORS
+    from mfi_drake.world.fleets import antipodal_circle, crossing_streams
+    from mfi_drake.world.generator import write_scenario
+
+    shaping = {name for names in SCENE_OPTIONS.values() for name in names}
+    for name in sorted(shaping - set(SCENE_OPTIONS[args.kind])):
+        given = getattr(args, name)
+        if given != default_of(name):
+            kinds = " or ".join(k for k, ns in SCENE_OPTIONS.items() if name in ns)
+            flag = "--" + name.replace("_", "-")
+            raise UsageError(f"{flag} = {given}: shapes a {kinds} scene only")
+    if not args.out.endswith((".yaml", ".yml")):
+        raise UsageError(f"--out = {args.out!r}: must name a .yaml file")
+    if args.vehicles is None:
+        args.vehicles = 1 if args.kind == "field" else 8
+    at_least("--vehicles", args.vehicles, 1)
+    for name in ("radius", "length", "spacing", "duration"):
+        value = getattr(args, name)
+        if value is not None and not (math.isfinite(value) and value > 0.0):
+            raise UsageError(f"--{name} = {value}: must be a finite number > 0")
+    if args.kind == "field":
+        at_least("--index", args.index, 0)
+        config, tasks = sweep_config(args)
+        scene = tasks.make_field(config, args.density, args.index)
+    else:
+        if args.kind == "circle":
+            scene = antipodal_circle(
+                args.vehicles, args.radius, args.height, args.duration
+            )
+        else:
+            scene = crossing_streams(
+                args.vehicles, args.length, args.spacing, args.height
+            )
+        scene = replace(scene, sensor=SENSORS[args.sensor]())
+    validate_scenario(scene, args.out)
+    header = f"# written by `mfi-drake scene {args.kind}`; fly it: `mfi-drake run`\n"
+    write_scenario(scene, args.out, header=header)
+    count = 1 + len(scene.other_vehicles)
+    print(f"wrote {args.out}: {scene.name}, {count} vehicle(s), {scene.duration:g} s")
+    return 0
+
+
+def _need_dask() -> None:
+    from mfi_drake.studies.cluster import ClusterError, require_dask
+
+    try:
+        require_dask()
+    except ClusterError as e:
+        raise UsageError(str(e)) from None
+
+
+def cmd_sweep(args) -> int:
+    _need_dask()
+    from mfi_drake.app.figures import plot_fleet_sweep, plot_sweep
+    from mfi_drake.flight.fleet import check_one_integrator
+    from mfi_drake.studies.cluster import ClusterError, dask_client
+    from mfi_drake.studies.fleet_sweep import FLEET, fleet_table, fleet_variant
+    from mfi_drake.studies.stats import summary_table
+    from mfi_drake.studies.sweep import field_to_fly, run_sweep
+    from mfi_drake.studies.variants import (
+        goal_variant,
+        layered,
+        motion_variant,
+        variant_name,
+    )
+
+    methods = parse_methods(args.methods) if args.methods else list(METHODS)
+    check_sweep_numbers(args)
+    config, tasks = sweep_config(
+        args,
+        n=args.n,
+        methods=methods,
+        densities=list(dict.fromkeys(args.density)),
+        out=args.out,
+    )
+    fleet = tasks is FLEET
+    if fleet and args.faults is not None:
+        raise UsageError(
+            f"--faults = {args.faults!r}: not with --vehicles > 1 (a fleet's "
+            "vehicles fly without faults)"
+        )
+    texts = overrides(args)
+    faults = None
+    if args.faults is not None:
+        faults = read_faults(args.faults, f"--faults {args.faults!r}")
+    config.variant = variant_name(
+        texts,
+        faults,
+        motion_variant(args.moving, args.obstacle_speed),
+        goal_variant(args.goal_clearance),
+    )
+    if fleet:
+        config.variant = fleet_variant(args.vehicles, config.variant)
+    modify = partial(layered, overrides=texts, faults=faults)
+    # The first field with every layer, checked before a cluster starts or
+    # anything is written (run_sweep checks it too, for the API's callers).
+    first = field_to_fly(config, tasks, modify, config.densities[0], 0)
+    validate_scenario(first, layered_name(first.name, texts))
+    check_one_integrator(first, methods)
+    try:
+        with dask_client(args.workers, args.scheduler, methods) as client:
+            run = run_sweep(config, client, modify, tasks=tasks)
+    except KeyboardInterrupt:
+        print(
+            f"mfi-drake: interrupted; finished flights are in {args.out}/results.jsonl,"
+            " rerun the same command to fly the rest",
+            file=sys.stderr,
+        )
+        return 130
+    except ClusterError as e:  # unreachable, refused, no workers, ...
+        raise UsageError(str(e)) from None
+    plot = plot_fleet_sweep if fleet else plot_sweep
+    plot(run.summary, os.path.join(args.out, "sweep.png"))
+    if args.json:
+        print(json.dumps(json_safe(run.summary)))
+    else:
+        print((fleet_table if fleet else summary_table)(run.summary))
+        print(
+            f"flew {run.ran}, found {run.skipped} done; wrote {args.out}/: "
+            "results.jsonl, summary.json, table.md, sweep.png, failures/"
+        )
+    for line in run.lost:
+        print(f"mfi-drake: not run (rerun to retry): {line}", file=sys.stderr)
+    return 1 if run.lost else 0
+
+
+def cmd_tune(args) -> int:
+    _need_dask()
+    from mfi_drake.app.figures import plot_sweep
+    from mfi_drake.studies.cluster import ClusterError, dask_client
+    from mfi_drake.studies.stats import summary_table
+    from mfi_drake.studies.tune import TuneConfig, TuneError, held_out_sweep, tune
+
+    methods = parse_methods(args.methods)
+    check_sweep_numbers(args)
+    check_field_numbers(args)
+    check_motion_numbers(args)
+    check_held_out_numbers(args)
+    config = TuneConfig(
+        methods=methods,
+        candidates=args.candidates,
+        seed=args.seed,
+        n=args.n,
+        densities=list(dict.fromkeys(args.density)),
+        paper_scenarios=args.paper_scenarios,
+        walls=args.walls,
+        moving=args.moving,
+        obstacle_speed=args.obstacle_speed,
+        jitter=args.jitter,
+        held_out_seed=args.held_out_seed,
+        out=args.out,
+    )
+    try:
+        config.check()
+    except TuneError as e:
+        raise UsageError(str(e)) from None
+    if args.held_out_seed is None:
+        print(
+            "mfi-drake: warning: no --held-out-seed: the tuned gains will not be "
+            "flown on held-out fields",
+            file=sys.stderr,
+        )
+    try:
+        with dask_client(args.workers, args.scheduler, methods) as client:
+            tune(config, client)
+            print(f"wrote {args.out}/tuned.yaml, tuning.md, tuning.json, tune.jsonl")
+            if args.held_out_seed is None:
+                return 0
+            run = held_out_sweep(config, client, args.held_out_n, args.held_out_density)
+    except (TuneError, ClusterError) as e:
+        raise UsageError(str(e)) from None
+    held_out = os.path.join(args.out, "held_out")
+    plot_sweep(run.summary, os.path.join(held_out, "sweep.png"))
+    print(summary_table(run.summary))
+    print(f"wrote {held_out}/ (held-out fields, seed {args.held_out_seed})")
+    return 1 if run.lost else 0
+
+
+def add_sweep(sub) -> None:
+    """The `sweep` command's parser, added to the subparsers `sub`."""
+    sweep = add_parser(
+        sub,
+        "sweep",
+        "Monte Carlo benchmark on random obstacle fields (Dask)",
+        exit_status=exit_statuses(
+            "every flight was flown, whatever its outcome (the rates are the output)",
+            "a flight could not be run (rerun the same command to fly it)",
+        ),
+    )
+    add_overrides(sweep)
+    add_field_count(sweep, 30, "random")
+    sweep.add_argument(
+        "--methods",
+        metavar="M,M,...",
+        help="distinct names or MODULE:NAME, separated by commas, e.g. mfi,apf,gf "
+        f"(default: every method of the registry: {','.join(METHODS)})",
+    )
+    add_random_field(sweep, several=True)
+    sweep.add_argument(
+        "--vehicles",
+        metavar="V",
+        type=int,
+        default=1,
+        help="vehicles per field, ≥ 1, between random start and goal pairs at the "
+        "ends of the box, half each way (1: the single-vehicle sweep)",
+    )
+    add_workers(sweep)
+    sweep.add_argument(
+        "--faults",
+        metavar="YAML",
+        help="a scenario `faults:` block flown on every field, as YAML, e.g. "
+        "'{sensor_noise_std: 0.05, dropout_prob: 0.1}' (each field's seed is "
+        "offset by its name); results are keyed by it, so several can share "
+        "--out (default: none)",
+    )
+    sweep.add_argument(
+        "--out", metavar="DIR", default="out/sweep", help="output directory"
+    )
+    sweep.add_argument(
+        "--json", action="store_true", help="print the summary as one JSON object"
+    )
+    sweep.set_defaults(func=cmd_sweep)
+
+
+def add_scene(sub) -> None:
+    """The `scene` command's parser, added to the subparsers `sub`."""
+    scene = add_parser(
+        sub,
+        "scene",
+        "write a scenario file of N vehicles: an antipodal circle, crossing "
+        "streams, or a sweep's random field",
+        exit_statuses("the scenario is written, validated as `run` would"),
+        description="Writes a scenario file of N vehicles, validated as `run` "
+        "would, with every obstacle inline: 'circle' puts them evenly on a "
+        "horizontal circle, each flying to the opposite point (all meet in the "
+        "middle); 'streams' makes two streams abreast crossing at right angles; "
+        "'field' is the random field `sweep` flies for --seed, --density, "
+        "--index and --vehicles (1: the single-vehicle sweep's field). Options "
+        "that shape another kind are refused. Fly it with `mfi-drake run FILE`.",
+    )
+    scene.add_argument("kind", choices=list(SCENE_OPTIONS), help="the kind of scene")
+    scene.add_argument(
+        "--vehicles",
+        metavar="V",
+        type=int,
+        help="vehicles, ≥ 1 (default: 8; 1 for field)",
+    )
+    scene.add_argument(
+        "--radius",
+        type=float,
+        metavar="M",
+        help="circle: its radius, > 0 (default: 6 m, or wider so that "
+        "neighbours are 2 m apart along it)",
+    )
+    scene.add_argument(
+        "--duration",
+        type=float,
+        metavar="T",
+        help="circle: simulated seconds, > 0 (default: 5 s per metre of diameter)",
+    )
+    scene.add_argument(
+        "--height", type=float, default=2.0, metavar="M", help="circle, streams: z"
+    )
+    scene.add_argument(
+        "--length",
+        type=float,
+        default=12.0,
+        metavar="M",
+        help="streams: each vehicle's start–goal distance, > 0",
+    )
+    scene.add_argument(
+        "--spacing",
+        type=float,
+        default=1.5,
+        metavar="M",
+        help="streams: between neighbours abreast, > 0",
+    )
+    add_random_field(scene, several=False)
+    scene.add_argument(
+        "--index",
+        metavar="I",
+        type=int,
+        default=0,
+        help="field: which field of the seed, ≥ 0",
+    )
+    scene.add_argument(
+        "--out", metavar="FILE.yaml", required=True, help="the .yaml file to write"
+    )
+    scene.set_defaults(func=partial(cmd_scene, scene.get_default), out_is_file=True)
+
+
+def add_tune(sub) -> None:
+    """The `tune` command's parser, added to the subparsers `sub`."""
+    from mfi_drake.studies.tune import (
+        HELD_OUT_DENSITIES,
+        HELD_OUT_N,
+        JITTER_AXES,
+        MIN_CANDIDATES,
+    )
+
+    tune = add_parser(
+        sub,
+        "tune",
+        "one tuning protocol for every method, then held-out fields (Dask)",
+        exit_status=exit_statuses(
+            "tuned.yaml and, with --held-out-seed, the held-out sweep are written",
+            "a held-out flight could not be run (rerun the same command to fly it)",
+        ),
+    )
+    tune.add_argument(
+        "--methods",
+        metavar="M,M,...",
+        default=",".join(METHODS),
+        help="distinct names or MODULE:NAME, separated by commas",
+    )
+    tune.add_argument(
+        "--candidates",
+        metavar="C",
+        type=int,
+        default=24,
+        help=f"gain sets tried per method, ≥ {MIN_CANDIDATES}: the current gains, "
+        "a Latin hypercube of two thirds of the rest, then two rounds of "
+        "refinement; the budget is candidates × training fields flights",
+    )
+    tune.add_argument(
+        "--seed", metavar="S", type=int, default=100, help="training fields' seed, ≥ 0"
+    )
+    add_field_count(tune, 10, "random training")
+    tune.add_argument(
+        "--density",
+        metavar="D",
+        type=float,
+        nargs="+",
+        default=[0.1, 0.2],
+        help="training densities, obstacles per m³, each ≥ 0",
+    )
+    tune.add_argument(
+        "--paper-scenarios",
+        metavar="DIR",
+        help="a directory whose paper scenarios join training (default: none)",
+    )
+    tune.add_argument(
+        "--walls",
+        metavar="W",
+        type=int,
+        default=0,
+        help="wall fields that join training, ≥ 0",
+    )
+    add_motion(tune, "each random training field also flown with this share moving")
+    tune.add_argument(
+        "--jitter",
+        metavar="J",
+        type=int,
+        default=1,
+        help="fly each random training field this many times, started 1 mm "
+        f"apart, 1 (once) to {1 + len(JITTER_AXES)}",
+    )
+    tune.add_argument(
+        "--held-out-seed",
+        metavar="H",
+        type=int,
+        help="seed of the held-out fields the winners are then flown on, ≥ 0 and "
+        "≠ --seed (default: none, no held-out phase, with a warning)",
+    )
+    tune.add_argument(
+        "--held-out-n",
+        metavar="N",
+        type=int,
+        default=HELD_OUT_N,
+        help="held-out fields per density, ≥ 1",
+    )
+    tune.add_argument(
+        "--held-out-density",
+        metavar="D",
+        type=float,
+        nargs="+",
+        default=list(HELD_OUT_DENSITIES),
+        help="held-out densities, obstacles per m³, each ≥ 0",
+    )
+    add_workers(tune)
+    tune.add_argument(
+        "--out", metavar="DIR", default="out/tune", help="output directory"
+    )
+    tune.set_defaults(func=cmd_tune)

@@ -1,0 +1,56 @@
+"""A sweep's record store: each flight's key (`FlightKey`), the outcomes a
+record may hold, and DIR/results.jsonl, read whole (`read_results`, a
+partial last line cut off) and appended one complete line at a time
+(`append_record`)."""
+
+import json
+import os
+from typing import NamedTuple
+
+from mfi_drake.flight.result import OUTCOMES as FLIGHT_OUTCOMES
+
+
+class FlightKey(NamedTuple):
+    """What identifies a flight in results.jsonl."""
+
+    variant: str
+    sensor: str
+    density: float
+    seed: int
+    index: int
+    method: str
+
+    @property
+    def field(self) -> tuple:
+        """The field's part of the key (all but the method)."""
+        return self[:5]
+
+
+KEY_FIELDS = FlightKey._fields
+
+OUTCOMES = (*FLIGHT_OUTCOMES, "error")  # error: the simulation raised
+
+
+# --- results file ---------------------------------------------------------------
+def record_key(record: dict) -> FlightKey:
+    return FlightKey(*(record[k] for k in KEY_FIELDS))
+
+
+def read_results(path: str) -> list[dict]:
+    """The complete records in `path`; a trailing partial line (a kill in the
+    middle of a write) is cut off the file."""
+    if not os.path.exists(path):
+        return []
+    with open(path, "rb") as f:
+        data = f.read()
+    end = data.rfind(b"\n") + 1
+    if end < len(data):
+        os.truncate(path, end)
+    return [json.loads(line) for line in data[:end].splitlines() if line.strip()]
+
+
+def append_record(f, record: dict) -> None:
+    """One complete line, on disk before this returns."""
+    f.write(json.dumps(record, allow_nan=False) + "\n")
+    f.flush()
+    os.fsync(f.fileno())
