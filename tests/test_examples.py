@@ -13,8 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from mfi_drake import load_scenario, simulate
-from mfi_drake.config.parameters import NavigatorParams
+from mfi_drake import NavigatorParams, load_scenario, simulate
 from mfi_drake.config.vehicles import VEHICLES
 
 from .conftest import ROOT
