@@ -11,7 +11,7 @@ else):
 - `NavigationStep(goal, method="mfi", ...)`: the navigation chain one
   call at a time, `step(state, points) -> StepOutput`, for a flight stack.
 
-The builder API, MFI in a user's own Drake diagram (docs/builder.md):
+The builder API, MFI in a user's own Drake diagram:
 
 - `add_navigation(builder, plant, scene_graph, goal, ...)`: the sensor,
   navigator, goal attraction, attitude PD, mixer and logger around the
@@ -27,6 +27,12 @@ The builder API, MFI in a user's own Drake diagram (docs/builder.md):
 - the MultibodyPlant vehicle: `vehicle_model_path(name)` (its SDFormat
   file), `add_vehicle_model(plant, vehicle)`, `add_propellers`,
   `add_vehicle_state` (`MultibodyVehicleState`), `place_vehicle`.
+
+The closed loop linearised: `build_analysis_diagram(scenario)` (eq 21's
+mode fixed, nothing seen), `hover_state(goal)`, `linearize_closed_loop`
+(Drake's Linearize), `finite_difference_jacobian`, `hover_modes`.
+
+Every name is documented in docs/api.md; examples/ runs them.
 
 The layers, imports only downward (tests/test_layers.py): maths → config →
 world → systems → flight → studies → app.
@@ -66,6 +72,11 @@ _API = {
     "place_vehicle": "mfi_drake.systems.multibody",
     "MultibodyVehicleState": "mfi_drake.systems.multibody",
     "vehicle_model_path": "mfi_drake.config.vehicles",
+    "build_analysis_diagram": "mfi_drake.flight.analysis_diagram",
+    "hover_state": "mfi_drake.flight.analysis_diagram",
+    "linearize_closed_loop": "mfi_drake.studies.analysis.linearization",
+    "finite_difference_jacobian": "mfi_drake.studies.analysis.linearization",
+    "hover_modes": "mfi_drake.studies.analysis.linearization",
 }
 
 __all__ = sorted(_API)

@@ -39,22 +39,23 @@ from mfi_drake import (
 )
 
 DATA = pathlib.Path(__file__).parent / "data"
+YARD = pathlib.Path(__file__).parents[1] / "examples" / "yard.sdf"  # examples' world
 START = [0.0, 0.0, 1.5]
 GOAL = [12.0, 0.0, 1.5]
 
 
 def yard(builder: DiagramBuilder):
-    """The user's world: tests/data/yard.sdf parsed into the plant and
+    """The user's world: examples/yard.sdf parsed into the plant and
     SceneGraph of AddMultibodyPlantSceneGraph."""
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
-    Parser(plant).AddModels(str(DATA / "yard.sdf"))
+    Parser(plant).AddModels(str(YARD))
     plant.Finalize()
     return plant, scene_graph
 
 
 def yard_clearance(p: np.ndarray) -> np.ndarray:
     """Distance of each point of p (N, 3) to the yard's surfaces, in closed
-    form (tests/data/yard.sdf: box, upright cylinder, sphere)."""
+    form (examples/yard.sdf: box, upright cylinder, sphere)."""
     half = np.array([0.2, 1.5, 1.5])
     q = np.abs(p - [4.0, 0.5, 1.5]) - half
     box = np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
@@ -130,7 +131,7 @@ def builder_with(*, multibody: bool = False, finalize: bool = True):
     """A builder holding the yard (its MultibodyPlant) and a QuadrotorPlant."""
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
-    Parser(plant).AddModels(str(DATA / "yard.sdf"))
+    Parser(plant).AddModels(str(YARD))
     if finalize:
         plant.Finalize()
     quadrotor = builder.AddSystem(QuadrotorPlant())
@@ -331,7 +332,7 @@ def test_build_diagram_is_the_public_pieces(scene):
 def test_a_multibody_vehicle_in_the_yard_flies_the_quadrotors_path():
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
-    Parser(plant).AddModels(str(DATA / "yard.sdf"))
+    Parser(plant).AddModels(str(YARD))
     body = add_vehicle_model(plant, "drake_default")
     plant.Finalize()
     handles = add_navigation(

@@ -2,6 +2,7 @@
 summaries, never generated meshes or per-flight sweep outputs."""
 
 import os
+import re
 
 import pytest
 
@@ -59,3 +60,34 @@ def test_the_readme_and_every_docs_page_stay_short(tracked):
         if lines > limit:
             long[page] = lines
     assert not long, f"pages over their limit (README 300, others 400): {long}"
+
+
+def test_every_public_name_is_in_the_api_reference_and_it_is_linked():
+    import mfi_drake
+
+    with open(os.path.join(ROOT, "docs", "api.md")) as f:
+        reference = f.read()
+    # Each name where it is defined: in code quotes, followed by its
+    # signature, the closing quote or an attribute.
+    missing = [
+        name
+        for name in mfi_drake.__all__
+        if not re.search(rf"`{re.escape(name)}[`(.]", reference)
+    ]
+    assert not missing, f"docs/api.md does not document {missing}"
+    for page in ("README.md", os.path.join("docs", "usage.md")):
+        with open(os.path.join(ROOT, page)) as f:
+            assert "api.md)" in f.read(), f"{page} does not link docs/api.md"
+
+
+def test_every_relative_link_of_a_page_names_a_file(tracked):
+    broken = []
+    for page in (p for p in tracked if p.endswith(".md")):
+        with open(os.path.join(ROOT, page)) as f:
+            text = f.read()
+        for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text):
+            if "://" in target or target.startswith("mailto:"):
+                continue
+            if not os.path.exists(os.path.join(ROOT, os.path.dirname(page), target)):
+                broken.append((page, target))
+    assert not broken, f"links to no file: {broken}"

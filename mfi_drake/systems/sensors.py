@@ -3,7 +3,6 @@
 import copy
 import math
 
-import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import Box as DrakeBox
 from pydrake.geometry import Cylinder as DrakeCylinder
@@ -20,6 +19,8 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.framework import LeafSystem
 
+from mfi_drake.config import vehicle_model
+from mfi_drake.config.vehicle_model import vehicle_parts
 from mfi_drake.maths.layout import (
     OBSTACLE_SIGNAL_SIZE,
     POSITION,
@@ -28,7 +29,8 @@ from mfi_drake.maths.layout import (
 )
 from mfi_drake.world.obstacles import nearest_obstacles
 
-VEHICLE_RGBA = Rgba(0.1, 0.3, 0.8, 1.0)
+VEHICLE_RGBA = Rgba(*vehicle_model.VEHICLE_RGBA)
+_SHAPES = {"box": DrakeBox, "cylinder": DrakeCylinder}  # `vehicle_model.Part`'s
 SLACK = 1e-3  # [m] added to a shortened reach, for the distances' rounding
 
 
@@ -111,8 +113,9 @@ class SphereSensor(LeafSystem):
 
 
 class VehicleGeometry(LeafSystem):
-    """Registers the vehicle's body frame and a visual shape with SceneGraph
-    and moves the frame with the plant's state.
+    """Registers the vehicle's body frame with SceneGraph, the parts the
+    shipped SDFormat models draw (`config.vehicle_model.vehicle_parts`) on
+    it, and moves the frame with the plant's state.
 
     .. pydrake_system::
 
@@ -139,24 +142,13 @@ class VehicleGeometry(LeafSystem):
         super().__init__()
         self._source = scene_graph.RegisterSource(name)
         self.frame_id = scene_graph.RegisterFrame(self._source, GeometryFrame("body"))
-        parts = [(RigidTransform(), DrakeBox(0.6 * arm_length, 0.6 * arm_length, 0.05))]
-        for k in range(4):
-            angle = k * np.pi / 2
-            arm_pose = RigidTransform(
-                RollPitchYaw(0.0, 0.0, angle),
-                [
-                    0.5 * arm_length * np.cos(angle),
-                    0.5 * arm_length * np.sin(angle),
-                    0.0,
-                ],
+        parts = vehicle_parts(arm_length, rotor_radius)  # the SDF models' parts
+        for i, part in enumerate(parts):
+            instance = GeometryInstance(
+                RigidTransform(RollPitchYaw(0.0, 0.0, part.yaw), part.xyz),
+                _SHAPES[part.shape](*part.size),
+                f"vehicle_{i}",
             )
-            parts.append((arm_pose, DrakeBox(arm_length, 0.02, 0.02)))
-            rotor_pose = RigidTransform(
-                [arm_length * np.cos(angle), arm_length * np.sin(angle), 0.03]
-            )
-            parts.append((rotor_pose, DrakeCylinder(rotor_radius, 0.01)))
-        for i, (pose, shape) in enumerate(parts):
-            instance = GeometryInstance(pose, shape, f"vehicle_{i}")
             illustration = IllustrationProperties()
             illustration.AddProperty("phong", "diffuse", rgba)
             instance.set_illustration_properties(illustration)

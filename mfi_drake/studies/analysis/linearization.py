@@ -104,8 +104,9 @@ def plant_report(vehicle: Vehicle) -> dict:
 
 
 # --- the closed loop at hover -------------------------------------------------
-def modes(eigenvalues: np.ndarray) -> dict:
-    """Damping ratios and time constants of a set of stable eigenvalues."""
+def hover_modes(eigenvalues: np.ndarray) -> dict:
+    """Damping ratios and time constants of a set of stable eigenvalues
+    (those of the closed loop at hover, `linearize_closed_loop`)."""
     re = eigenvalues.real
     damping = -re / np.abs(eigenvalues)
     return {

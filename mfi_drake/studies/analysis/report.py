@@ -19,8 +19,8 @@ from mfi_drake.studies.analysis.cruise import cruise_report, far_goal_heading
 from mfi_drake.studies.analysis.linearization import (
     finite_difference_jacobian,
     gain_sweep,
+    hover_modes,
     linearize_closed_loop,
-    modes,
     plant_report,
 )
 from mfi_drake.studies.analysis.roa import (
@@ -50,7 +50,7 @@ def run_analysis(
     A_fd = finite_difference_jacobian(analysis.diagram, x0)
     eigenvalues = np.linalg.eigvals(A)
     eigenvalues = eigenvalues[np.lexsort((eigenvalues.imag, eigenvalues.real))]
-    report.update(modes(eigenvalues))
+    report.update(hover_modes(eigenvalues))
     report["linearize_vs_fd_max_error"] = float(np.abs(A - A_fd).max())
     report["hover_equilibrium_residual"] = float(
         np.abs(time_derivatives(analysis.diagram, x0)).max()
