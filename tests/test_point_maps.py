@@ -156,7 +156,8 @@ def test_a_million_points_load(tmp_path):
     peak = tracemalloc.get_traced_memory()[1] / 1e6
     tracemalloc.stop()
     print(
-        f"1e6 points: {seconds:.2f} s, peak {peak:.0f} MB, {len(scenario.map_points)} kept"
+        f"1e6 points: {seconds:.2f} s, peak {peak:.0f} MB, "
+        f"{len(scenario.map_points)} kept"
     )
     # The wall's 26.8 m² of surface holds at most ~26.8 / 0.05² voxels.
     assert 0 < len(scenario.map_points) < 1.2 * 26.8 / 0.05**2
@@ -195,7 +196,12 @@ BAD_MAPS = [
         "obstacles:\n  - shape: !Sphere {radius: 0.3}\n    position: [2, 2, 2]\n",
         "a point-cloud map flies with no obstacles",
     ),
-    ("ground", "wall", "ground: {height: 0.0}\n", "a point-cloud map flies with no ground"),
+    (
+        "ground",
+        "wall",
+        "ground: {height: 0.0}\n",
+        "a point-cloud map flies with no ground",
+    ),
 ]
 
 

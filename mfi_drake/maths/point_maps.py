@@ -20,17 +20,17 @@ _CHUNK = 1 << 22
 
 
 def downsample(points: np.ndarray, voxel: float) -> np.ndarray:
-    """(m, 3): the centroid of the points (n, 3) of each occupied voxel of
+    """(m, 3): the centroid of the points (n ≥ 1, 3) of each occupied voxel of
     edge `voxel`, in voxel order (a standard voxel-grid filter: a flat
     surface's centroids stay on it; each lies within the voxel's diagonal
     of every point it stands for)."""
     cells = np.floor(points / voxel).astype(np.int64)
-    _, index, counts = np.unique(cells, axis=0, return_inverse=True, return_counts=True)
-    index = index.ravel()
-    sums = np.zeros((len(counts), 3))
-    for k in range(3):
-        sums[:, k] = np.bincount(index, weights=points[:, k], minlength=len(counts))
-    return sums / counts[:, None]
+    order = np.lexsort(cells.T[::-1])  # voxel by voxel, x then y then z
+    cells = cells[order]
+    starts = np.flatnonzero(np.any(cells[1:] != cells[:-1], axis=1)) + 1
+    starts = np.concatenate([[0], starts])
+    counts = np.diff(np.append(starts, len(cells)))
+    return np.add.reduceat(points[order], starts, axis=0) / counts[:, None]
 
 
 def map_readings(xyz: np.ndarray, position: np.ndarray, radius: float) -> np.ndarray:
