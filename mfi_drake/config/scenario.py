@@ -37,6 +37,7 @@ from mfi_drake.config.parameters import (
     validate_params,
 )
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.maths.point_maps import MAP_VOXEL
 
 FLEET_INTEGRATIONS = ("separate", "one")
 MAP_SUFFIXES = (".ply", ".pcd")  # a `world:` that is a point-cloud map
@@ -216,7 +217,7 @@ class Scenario:
     # point-cloud map (.ply, .pcd), its points thinned into map_points.
     world: str = ""
     # [m] the voxel edge a point-cloud map is thinned to (maths.point_maps).
-    map_voxel: float = 0.05
+    map_voxel: float = MAP_VOXEL
     # A point-cloud map's thinned points [m], world frame: what a map file
     # loads into, and what travels to a sweep's workers.
     map_points: list[list[float]] = field(default_factory=list)
