@@ -51,7 +51,8 @@ def draw_obstacles(ax, scenario: Scenario, times=(0.0,)) -> None:
     """The obstacles at times[0] and, those that move, at times[-1] too (the
     first faint) with their centre's path over `times` dashed; a
     point-cloud map as a light scatter."""
-    ax.scatter(*map_drawn(scenario).T, **MAP_STYLE)
+    if scenario.map_points:
+        ax.scatter(*map_drawn(scenario).T, **MAP_STYLE)
     for obstacle in scenario.obstacles:
         moving = moves(obstacle.motion)
         for t, alpha in (
@@ -73,7 +74,8 @@ def draw_obstacles(ax, scenario: Scenario, times=(0.0,)) -> None:
 def draw_footprints(ax, scenario: Scenario, times=(0.0,)) -> None:
     """The top view of `draw_obstacles`: each obstacle's x–y footprint (its
     triangles projected, one flat colour so that overlaps do not darken)."""
-    ax.scatter(*map_drawn(scenario)[:, :2].T, zorder=0, **MAP_STYLE)
+    if scenario.map_points:
+        ax.scatter(*map_drawn(scenario)[:, :2].T, zorder=0, **MAP_STYLE)
     for obstacle in scenario.obstacles:
         moving = moves(obstacle.motion)
         for t, grey in [(times[0], 0.9), (times[-1], 0.78)] if moving else [(0, 0.78)]:
