@@ -245,3 +245,14 @@ def test_map_points_written_inline_are_checked():
     )
     with pytest.raises(sc.ScenarioError, match=r"x: map_points\[0\] = .*finite"):
         sc.check_scenario(scenario, "x")
+
+
+def test_the_figure_draws_the_map_as_points():
+    """The top view's first collection is the map's scatter: every point's
+    x and y (the shipped map is under MAP_DRAWN points)."""
+    from mfi_drake.app.figures import flights_figure
+
+    scenario = load_scenario(os.path.join(SCENARIOS, "planar_wall_map.yaml"))
+    ax_top = flights_figure(scenario, []).axes[1]
+    drawn = ax_top.collections[0].get_offsets()
+    np.testing.assert_array_equal(drawn, np.asarray(scenario.map_points)[:, :2])
