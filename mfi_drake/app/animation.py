@@ -35,7 +35,7 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import DiagramBuilder
 
-from mfi_drake.app.figures import OUTCOME_WORDS
+from mfi_drake.app.figures import OUTCOME_WORDS, map_drawn
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_text
@@ -51,6 +51,8 @@ FIELD_OF_VIEW_DEG = 75.0  # Meshcat's default perspective camera
 VIEW_DIRECTION = np.array([-0.5, -0.7, 0.8])  # from the scene's centre
 GROUND_THICKNESS = 0.05  # m, of the slab drawn for the ground
 GOAL_COLOUR = "gold"  # as the figures' goal star
+MAP_POINT_SIZE = 0.03  # m, a point-cloud map's points as drawn
+MAP_RGBA = Rgba(0.35, 0.35, 0.4, 1.0)  # as the figures' map scatter
 
 
 def offline_meshcat() -> Meshcat:
@@ -126,6 +128,7 @@ def scene_box(scenario: Scenario, flights: list[Flight]) -> tuple:
     """(low, high) corners of a box holding every vehicle's path, start and
     goal, and every obstacle wherever it went."""
     points = [np.asarray(scenario.start, float), np.asarray(scenario.goal, float)]
+    points.append(map_drawn(scenario))
     for flight in flights:
         points += [f.positions for f in (flight, *flight.others)]
     for obstacle in scenario.obstacles:
@@ -154,6 +157,17 @@ def draw_ground(meshcat: Meshcat, height: float, low, high) -> None:
     meshcat.SetTransform(
         "ground", RigidTransform([*centre, height - GROUND_THICKNESS / 2.0])
     )
+
+
+def draw_map(meshcat: Meshcat, scenario: Scenario) -> None:
+    """A point-cloud map's points (`figures.map_drawn`), "map", grey."""
+    drawn = map_drawn(scenario)
+    if len(drawn):
+        from pydrake.perception import PointCloud  # only a map pays its import
+
+        cloud = PointCloud(len(drawn))
+        cloud.mutable_xyzs()[:] = drawn.T
+        meshcat.SetObject("map", cloud, MAP_POINT_SIZE, MAP_RGBA)
 
 
 def draw_goals(meshcat: Meshcat, scenario: Scenario) -> None:
@@ -217,6 +231,7 @@ def write_animation(scenario: Scenario, flights: list[Flight], path: str) -> Non
         low[2] = min(low[2], scenario.ground.height)
         draw_ground(meshcat, scenario.ground.height, low, high)
     draw_goals(meshcat, scenario)
+    draw_map(meshcat, scenario)
     frame_scene(meshcat, low, high)
     labels = ", ".join(appearance(f.method)[0] for f in flights)
     title = f"{scenario.name}: {labels} (mfi-drake)"

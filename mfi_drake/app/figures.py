@@ -36,9 +36,23 @@ def write_figure(fig: Figure, path: str, dpi: int = 110) -> None:
         fig.savefig(tmp, dpi=dpi, format=path.rsplit(".", 1)[-1])
 
 
+MAP_DRAWN = 20_000  # points of a point-cloud map drawn at most (evenly strided)
+MAP_STYLE = {"color": (0.35, 0.35, 0.4), "s": 2.0, "alpha": 0.5, "linewidths": 0}
+
+
+def map_drawn(scenario: Scenario) -> np.ndarray:
+    """(k, 3): the points of the scenario's point-cloud map that figures
+    draw (all, or every n-th beyond MAP_DRAWN); none without a map."""
+    points = np.asarray(scenario.map_points, dtype=float).reshape(-1, 3)
+    return points[:: -(-len(points) // MAP_DRAWN) or 1]
+
+
 def draw_obstacles(ax, scenario: Scenario, times=(0.0,)) -> None:
     """The obstacles at times[0] and, those that move, at times[-1] too (the
-    first faint) with their centre's path over `times` dashed."""
+    first faint) with their centre's path over `times` dashed; a
+    point-cloud map as a light scatter."""
+    if scenario.map_points:
+        ax.scatter(*map_drawn(scenario).T, **MAP_STYLE)
     for obstacle in scenario.obstacles:
         moving = moves(obstacle.motion)
         for t, alpha in (
@@ -60,6 +74,8 @@ def draw_obstacles(ax, scenario: Scenario, times=(0.0,)) -> None:
 def draw_footprints(ax, scenario: Scenario, times=(0.0,)) -> None:
     """The top view of `draw_obstacles`: each obstacle's x–y footprint (its
     triangles projected, one flat colour so that overlaps do not darken)."""
+    if scenario.map_points:
+        ax.scatter(*map_drawn(scenario)[:, :2].T, zorder=0, **MAP_STYLE)
     for obstacle in scenario.obstacles:
         moving = moves(obstacle.motion)
         for t, grey in [(times[0], 0.9), (times[-1], 0.78)] if moving else [(0, 0.78)]:
@@ -137,7 +153,7 @@ def flights_figure(scenario: Scenario, flights: list, title: str = "") -> Figure
     draw_obstacles(ax3d, scenario, times)
     draw_footprints(ax_top, scenario, times)
     start, goal = np.asarray(scenario.start), np.asarray(scenario.goal)
-    corners = [start, goal]
+    corners = [start, goal, map_drawn(scenario)]
     for obstacle in scenario.obstacles:  # wherever it went, all of it
         reach = bounding_radius(scenario, obstacle.shape)
         centres = np.atleast_2d(obstacle_position(obstacle, times))

@@ -15,6 +15,7 @@ import math
 import os
 from dataclasses import dataclass, field
 
+import numpy as np
 from pydrake.common.schema import Transform
 from pydrake.systems.analysis import SimulatorConfig
 
@@ -36,8 +37,10 @@ from mfi_drake.config.parameters import (
     validate_params,
 )
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.maths.point_maps import MAP_VOXEL
 
 FLEET_INTEGRATIONS = ("separate", "one")
+MAP_SUFFIXES = (".ply", ".pcd")  # a `world:` that is a point-cloud map
 
 
 class ScenarioError(ValueError):
@@ -210,8 +213,14 @@ class Scenario:
     obstacles: list[Obstacle] = field(default_factory=list)
     # An SDFormat (.sdf) or URDF (.urdf) file, relative to the YAML file, whose
     # static models' collision geometries are obstacles too: loading appends
-    # them to `obstacles` and empties this (docs/usage.md, "Worlds").
+    # them to `obstacles` and empties this (docs/usage.md, "Worlds"). Or a
+    # point-cloud map (.ply, .pcd), its points thinned into map_points.
     world: str = ""
+    # [m] the voxel edge a point-cloud map is thinned to (maths.point_maps).
+    map_voxel: float = MAP_VOXEL
+    # A point-cloud map's thinned points [m], world frame: what a map file
+    # loads into, and what travels to a sweep's workers.
+    map_points: list[list[float]] = field(default_factory=list)
     ground: Ground | None = None  # none: no ground
     # Further vehicles flown at once (docs/dynamic.md).
     other_vehicles: list[OtherVehicle] = field(default_factory=list)
@@ -433,6 +442,36 @@ def check_scenario(scenario: Scenario, where: str) -> None:
         if not obstacle.name.isprintable():  # errors quote it in their one line
             fail(at, "name", obstacle.name, "must be one line of printable text")
     _check_dynamic(where, scenario)
+    _check_map(where, scenario)
+
+
+def _check_map(where: str, scenario: Scenario) -> None:
+    """A point-cloud map is the whole world, read by the sphere sensor
+    alone (`systems.point_map`): no cameras (a cloud has no surfaces to
+    render), no obstacles, ground or other vehicles beside it."""
+    _check_positive(where, "map_voxel", scenario.map_voxel)
+    try:  # at once (a map holds many points); point by point to name one
+        points = np.asarray(scenario.map_points, dtype=float).reshape(-1, 3)
+        whole = len(points) == len(scenario.map_points)
+    except (ValueError, TypeError):
+        whole = False
+    if not (whole and np.isfinite(points).all()):
+        for i, point in enumerate(scenario.map_points):
+            _check_vector(where, f"map_points[{i}]", point)
+    if not (scenario.map_points or scenario.world.endswith(MAP_SUFFIXES)):
+        return
+    value = scenario.world or f"{len(scenario.map_points)} map_points"
+    beside = {
+        "cameras (a point cloud has no surfaces to render; fly it with the "
+        "sphere sensor)": not isinstance(scenario.sensor, SphereSensor),
+        "obstacles": bool(scenario.obstacles),
+        "ground": scenario.ground is not None,
+        "other vehicles": bool(scenario.other_vehicles),
+        "map_points as well": bool(scenario.world and scenario.map_points),
+    }
+    for what, given in beside.items():
+        if given:
+            fail(where, "world", value, f"a point-cloud map flies with no {what}")
 
 
 def _is_number(x) -> bool:

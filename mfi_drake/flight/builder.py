@@ -282,6 +282,7 @@ def add_scenario_navigation(
         moving=moving,
         ignore=ignored,
         mount=rig.mount,
+        map_points=np.asarray(scenario.map_points, dtype=float).reshape(-1, 3),
     )
     controller = add_controller(
         builder,

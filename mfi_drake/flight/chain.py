@@ -14,6 +14,7 @@ a user who wants only the sensor or only the controller calls one.
 
 from dataclasses import dataclass
 
+import numpy as np
 from pydrake.geometry import FrameId, GeometryId, Role, SceneGraph
 from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
@@ -33,6 +34,7 @@ from mfi_drake.systems.faults import (
     add_state_estimate,
 )
 from mfi_drake.systems.navigation import ObstacleNavigator
+from mfi_drake.systems.point_map import PointMapSensor
 from mfi_drake.systems.relative import RelativeNavigator, relative_navigator
 from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
 from mfi_drake.systems.sensors import VehicleGeometry
@@ -93,6 +95,7 @@ def add_sensor(
     moving: bool = False,
     ignore=(),
     mount: CameraMount | None = None,
+    map_points: np.ndarray | None = None,
 ):
     """Adds the sensor of the configuration `sensor` (a `SphereSensor` or a
     camera rig, `config.scenario`), named "sensor", reading `scene_graph`
@@ -113,8 +116,14 @@ def add_sensor(
     sphere sensor's readings go through `OtherVehicleReadings`, which is
     then the system returned; cameras see `OtherVehicleSpheres`, their near
     plane beyond the collision radius, as a real depth camera's minimum
-    range."""
+    range.
+
+    `map_points` (n, 3): a point-cloud map (`Scenario.map_points`), read
+    by a `PointMapSensor` instead of `scene_graph`'s geometry."""
     radius = VEHICLES[vehicle].collision_radius
+    mapped = map_points is not None and len(map_points) > 0
+    if mapped and not isinstance(sensor, SphereSensor):
+        raise TypeError(f"sensor = {sensor!r}: a point-cloud map has no surfaces")
     if isinstance(sensor, Cameras):
         if mount is None:
             geometry = builder.AddNamedSystem(
@@ -152,13 +161,19 @@ def add_sensor(
         )
     if not isinstance(sensor, SphereSensor):
         raise TypeError(f"sensor = {sensor!r}: not a SphereSensor or camera rig")
-    system = builder.AddNamedSystem(
-        "scene_sensor" if other_vehicles else "sensor",
-        SphereSensorSystem(
-            sensor.radius, moving=moving, ignore=own_geometry(scene_graph, ignore)
-        ),
-    )
-    builder.Connect(scene_graph.get_query_output_port(), system.GetInputPort("query"))
+    name = "scene_sensor" if other_vehicles else "sensor"
+    if mapped:
+        system = builder.AddNamedSystem(name, PointMapSensor(map_points, sensor.radius))
+    else:
+        system = builder.AddNamedSystem(
+            name,
+            SphereSensorSystem(
+                sensor.radius, moving=moving, ignore=own_geometry(scene_graph, ignore)
+            ),
+        )
+        builder.Connect(
+            scene_graph.get_query_output_port(), system.GetInputPort("query")
+        )
     builder.Connect(state_port, system.GetInputPort("state"))
     if not other_vehicles:
         return system

@@ -106,7 +106,7 @@ def flight_metrics(flight: Flight) -> dict:
     goal = np.asarray(scenario.goal, float)
     error = np.linalg.norm(p - goal, axis=1)
     path_length = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
-    if scenario.obstacles or scenario.ground is not None:
+    if scenario.obstacles or scenario.ground is not None or scenario.map_points:
         # Exact: a point with nothing within the reach is farther than any
         # distance found. Only a flight that never came near anything needs
         # the query against every obstacle. Moving obstacles are where they

@@ -26,6 +26,7 @@ from pydrake.math import RigidTransform
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
 from mfi_drake.maths.layout import nearest_first, obstacle_signal
+from mfi_drake.maths.point_maps import nearest_points
 from mfi_drake.world.motion import ObstacleFrames, obstacle_pose
 from mfi_drake.world.shapes import drake_shape, shape_mesh
 
@@ -137,11 +138,17 @@ def obstacle_distances(
     or the ground, with the obstacles where they are at the point's time
     (`times`, one per point; default t = 0); inf when nothing is within
     `within` (SceneGraph's broadphase then skips the far obstacles, which is
-    what makes a threshold cheap)."""
-    return [
+    what makes a threshold cheap). A point-cloud map's points count as
+    surfaces (`Scenario.map_points`)."""
+    found = [
         np.inf if r is None else r.distance
         for _, r in _nearest(scenario, points, within, times)
     ]
+    if scenario.map_points:
+        to_map, _ = nearest_points(np.asarray(scenario.map_points), points)
+        to_map[to_map > within] = np.inf
+        found = np.minimum(found, to_map).tolist()
+    return found
 
 
 def closest_obstacles(
@@ -158,6 +165,14 @@ def closest_obstacles(
         index = name.removeprefix("obstacle_")
         obstacle = scenario.obstacles[int(index)] if index != name else None
         out.append((r.distance, obstacle))
+    if scenario.map_points:  # the nearer of the map and the obstacles
+        map_points = np.asarray(scenario.map_points)
+        to_map, index = nearest_points(map_points, points)
+        for k, m in enumerate(to_map):
+            if m < out[k][0]:
+                nearest = [round(float(x), 3) for x in map_points[index[k]]]
+                name = f"the map's point {nearest}"
+                out[k] = (float(m), sc.Obstacle(position=nearest, name=name))
     return out
 
 

@@ -30,6 +30,7 @@ from pydrake.systems.framework import DiagramBuilder
 from mfi_drake.config import scenario as sc
 from mfi_drake.world.decomposition import mesh_obstacles, with_meshes
 from mfi_drake.world.obstacles import quiet_half_spaces
+from mfi_drake.world.point_clouds import with_map
 
 WORLD_SUFFIXES = (".sdf", ".urdf")
 # Decimals of a degree that a pose's roll, pitch and yaw are read to: the
@@ -66,7 +67,10 @@ def world_obstacles(path: str, label: str) -> list[sc.Obstacle]:
     model that moves or a geometry of no obstacle shape, or holds no
     collision geometry."""
     if not path.endswith(WORLD_SUFFIXES):
-        raise ValueError("must be an SDFormat (.sdf) or URDF (.urdf) file")
+        raise ValueError(
+            "must be an SDFormat (.sdf) or URDF (.urdf) file, or a point-cloud "
+            "map (.ply, .pcd)"
+        )
     if not os.path.isfile(path):
         raise ValueError(f"no such file ({path})")
     # Imported here: pydrake.multibody's import costs ~0.2 s that a scenario
@@ -135,7 +139,10 @@ def with_files(scenario: sc.Scenario, where: str) -> sc.Scenario:
     """`scenario` as it flies anywhere: its world file's obstacles after its
     own, `world` emptied (so it resolves once), and each `!Mesh` replaced by
     its convex pieces (`decomposition.with_meshes`); itself without either.
+    A point-cloud map instead fills `map_points` (`point_clouds.with_map`).
     Raises ScenarioError naming `where`, the field and the file."""
+    if scenario.world.endswith(sc.MAP_SUFFIXES):
+        scenario = with_map(scenario, where)
     if scenario.world:
         path = os.path.join(scenario.base_dir, scenario.world)
         try:

@@ -1,0 +1,87 @@
+"""Point-cloud maps as a scenario's `world:`: a recorded cloud (PLY or PCD)
+read with a maintained reader (plyfile, pypcd4), checked, and thinned to
+`Scenario.map_voxel` (`maths.point_maps.downsample`). Loading puts the
+thinned points inline in `Scenario.map_points` and empties `world`, so the
+scenario that travels (as YAML, to a sweep's workers) carries the points,
+not the path."""
+
+import dataclasses
+import os
+
+import numpy as np
+
+from mfi_drake.config import scenario as sc
+from mfi_drake.maths.point_maps import downsample
+from mfi_drake.world.obstacles import obstacle_triangles
+
+
+def read_cloud(path: str) -> np.ndarray:
+    """(n, 3) float64: the x, y, z of every point of the PLY or PCD file
+    `path`. Raises ValueError, one line, for a file that is missing,
+    unreadable, without x, y, z, empty, or with a point not finite."""
+    if not os.path.isfile(path):
+        raise ValueError(f"no such file ({path})")
+    try:
+        if path.endswith(".ply"):
+            from plyfile import PlyData  # imported here: only a map pays
+
+            vertex = PlyData.read(path)["vertex"]
+            points = np.column_stack([vertex[k] for k in "xyz"])
+        else:
+            from pypcd4 import PointCloud
+
+            points = PointCloud.from_path(path).numpy(("x", "y", "z"))
+    except Exception as e:  # the readers raise many kinds; the user needs one line
+        reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise ValueError(f"not readable as a point cloud: {reason}") from None
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    if len(points) == 0:
+        raise ValueError("holds no points")
+    bad = ~np.isfinite(points).all(axis=1)
+    if bad.any():
+        raise ValueError(
+            f"{int(bad.sum())} points are not finite (the first: point "
+            f"{int(np.argmax(bad))}, {points[np.argmax(bad)].tolist()})"
+        )
+    return points
+
+
+def with_map(scenario: sc.Scenario, where: str) -> sc.Scenario:
+    """`scenario` with its map file's points thinned into `map_points` and
+    `world` emptied; raises ScenarioError naming `where`, the field and the
+    file."""
+    path = os.path.join(scenario.base_dir, scenario.world)
+    try:
+        points = read_cloud(path)
+    except ValueError as e:
+        sc.fail(where, "world", scenario.world, str(e))
+    thinned = downsample(points, scenario.map_voxel)
+    return dataclasses.replace(scenario, map_points=thinned.tolist(), world="")
+
+
+def surface_samples(scenario: sc.Scenario, count: int, seed: int = 0) -> np.ndarray:
+    """(count, 3): points drawn uniformly (by area) on the surfaces of the
+    scenario's obstacles at t = 0, the same for the same `seed`: a
+    point-cloud map of a known world, as a scanner would record it."""
+    triangles = np.concatenate(
+        [obstacle_triangles(scenario, o) for o in scenario.obstacles]
+    )
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    rng = np.random.default_rng(seed)
+    pick = rng.choice(len(triangles), size=count, p=area / area.sum())
+    u, v = rng.random((2, count))
+    flip = u + v > 1.0  # folded back into the triangle: uniform on it
+    u[flip], v[flip] = 1.0 - u[flip], 1.0 - v[flip]
+    return a[pick] + u[:, None] * (b - a)[pick] + v[:, None] * (c - a)[pick]
+
+
+def write_ply(path: str, points: np.ndarray) -> None:
+    """`points` (n, 3) as a binary PLY file of float32 x, y, z (what a
+    scanner's software writes)."""
+    from plyfile import PlyData, PlyElement
+
+    vertex = np.empty(len(points), dtype=[("x", "f4"), ("y", "f4"), ("z", "f4")])
+    for k, axis in enumerate("xyz"):
+        vertex[axis] = points[:, k]
+    PlyData([PlyElement.describe(vertex, "vertex")]).write(path)
