@@ -39,10 +39,20 @@ def position_velocity(x):
     return x[POSITION], x[VELOCITY]
 
 
-def nearest_first(distances: np.ndarray) -> np.ndarray:
-    """The indices of the OBSTACLE_COUNT least `distances`, least first, a
-    tie in the given order: how a sensor ranks the obstacles it reads."""
-    return np.argsort(distances, kind="mergesort")[:OBSTACLE_COUNT]
+def nearest_first(distances) -> list[int]:
+    """The indices of the OBSTACLE_COUNT least `distances` (a sequence),
+    least first, a tie in the given order: how a sensor ranks the obstacles
+    it reads. A selection over the few readings within r_s: in Python it
+    costs what `sorted` does, where an argsort of a new array cost ~4 µs a
+    reading (2.5 % of a planar-wall flight); numba compiles it as it is."""
+    order = []
+    for _ in range(min(OBSTACLE_COUNT, len(distances))):
+        best = -1
+        for i in range(len(distances)):
+            if (best < 0 or distances[i] < distances[best]) and i not in order:
+                best = i
+        order.append(best)
+    return order
 
 
 def point_readings(p: np.ndarray, points: np.ndarray, radius: float) -> np.ndarray:

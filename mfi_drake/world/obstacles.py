@@ -127,7 +127,7 @@ def nearest_obstacles(
     results = query_object.ComputeSignedDistanceToPoint(p, threshold)
     if ignore:
         results = [r for r in results if r.id_G not in ignore]
-    order = nearest_first(np.array([r.distance for r in results]))
+    order = nearest_first([r.distance for r in results])
     return obstacle_signal([-results[i].distance * results[i].grad_W for i in order])
 
 
