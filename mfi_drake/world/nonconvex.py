@@ -221,7 +221,7 @@ def corridor(points, width, height, baffles, rng) -> list:
     """A closed corridor on the ground along the polyline `points` (corners
     at right angles): walls on both sides (mitred at the bends), capped
     ends 1 m beyond the first and last points, a ceiling over each
-    segment, and `baffles` plates from alternate walls across 55 % of the
+    segment, and `baffles` plates from alternate walls across 40 % of the
     width, in the segments' middles."""
     points = np.asarray(points, float)
     ends = points.copy()
@@ -254,7 +254,7 @@ def corridor(points, width, height, baffles, rng) -> list:
         s = k % len(segments)
         at = ends[s] + segments[s] * rng.uniform(0.35, 0.65)
         root = at + side * half * normals[s]
-        tip = at + side * (half - 0.55 * width) * normals[s]
+        tip = at + side * (half - 0.4 * width) * normals[s]
         out += wall(root, tip, 0.0, height)
         side = -side
     return out
@@ -262,7 +262,7 @@ def corridor(points, width, height, baffles, rng) -> list:
 
 def _bent_corridor(rng: np.random.Generator) -> tuple:
     points = corridor_centreline(rng)
-    width, height = rng.uniform(1.6, 2.4), rng.uniform(2.6, 3.4)
+    width, height = rng.uniform(1.8, 2.6), rng.uniform(2.6, 3.4)
     baffles = int(rng.integers(0, 3))
     walls = corridor(points, width, height, baffles, rng)
     return walls, True, [*points[-1], GROUND_HEIGHT]
