@@ -23,6 +23,7 @@ import numpy as np
 
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import Vehicle
+from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.navigation import (
     ApfNavigator,
     GfNavigator,
@@ -107,6 +108,21 @@ METHODS: dict[str, Method] = {
         ),
         parameters="mfi_paper",
         gains=_mfi_gains("mfi_paper"),
+    ),
+    # MFI with the escape rule and its memory in non-convex worlds
+    # (docs/nonconvex.md): MFI's gains, its selector aimed at the goal.
+    "mfi-nc": Method(
+        name="mfi-nc",
+        label="MFI (non-convex)",
+        colour="navy",
+        navigator=lambda s, vehicle: EscapeNavigator(
+            s.navigator, _goal(s), vehicle.collision_radius
+        ),
+        goal_attraction=lambda s, vehicle: GoalAttractionSelector(
+            s.navigator, _goal(s), mass=vehicle.mass
+        ),
+        parameters="navigator",
+        gains=_mfi_gains("navigator"),
     ),
     "apf": Method(
         name="apf",

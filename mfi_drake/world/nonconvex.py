@@ -271,8 +271,9 @@ def _bent_corridor(rng: np.random.Generator) -> tuple:
 def cave(centre, radius, rock, mouth_deg, axis, rng) -> list:
     """Overlapping spheres of radius ≈ `rock` (±20 %) centred on a sphere
     of `radius` + 0.7·rock about `centre`, on a Fibonacci lattice of
-    directions about 1.3·rock apart (neighbours overlap), except those within `mouth_deg` of
-    the unit `axis` (the mouth): a pocket of inner radius ≈ `radius`."""
+    directions about 1.3·rock apart (neighbours overlap), except those
+    within `mouth_deg` of the unit `axis` (the mouth): a pocket of inner
+    radius ≈ `radius`."""
     shell = radius + 0.7 * rock
     count = max(12, int(4 * math.pi * shell**2 / (1.3 * rock) ** 2))
     golden = math.pi * (3.0 - math.sqrt(5.0))
