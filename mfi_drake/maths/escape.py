@@ -22,7 +22,8 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   u = t + κ (r − r_f) n, t = a × n / |a × n|, where n points to the followed
   surface's closest point (the nearest reading not within 45° of ±a, else
   the last one remembered) at clearance r, so that it hugs the surface at
-  r_f. The first axis is ±e_z, the sign that continues the vehicle's motion
+  r_f, moved into the plane ⟂ a through the goal (the goal's height for
+  ±e_z). The first axis is ±e_z, the sign that continues the vehicle's motion
   (it goes round horizontally the way it was going); then −that; then the
   horizontal axis ⟂ the goal direction, both signs (over and under).
 - Leave: |r_g| < d_hit − `leave_margin` and no seen surface's tangent plane
@@ -105,13 +106,16 @@ def axis(memory: np.ndarray, goal: np.ndarray) -> np.ndarray:
     return sign * (1.0 if k == 2 else -1.0) * side
 
 
-def followed_point(memory: np.ndarray, obstacle, p: np.ndarray, a: np.ndarray):
+def followed_point(
+    memory: np.ndarray, obstacle, p: np.ndarray, a: np.ndarray, near: float
+):
     """The closest point (world frame) of the followed surface: among the
     seen readings whose direction is not within 45° of ±a (walls, not the
     ground or a ceiling, for a = ±e_z), the one whose point lies nearest the
-    followed point remembered, unless another is `SWITCH` nearer the
-    vehicle (a wall ahead takes over at a concave corner; at a doorway the
-    jamb being rounded is kept, not the far one); the nearest where none is
+    followed point remembered, unless the nearest is closer than `near`
+    (the hugged distance of centre) or `SWITCH` nearer than that one: a
+    wall ahead takes over at a concave corner, and at a doorway the jamb
+    being rounded is kept, not the far one. The nearest where none is
     remembered; None if there is no candidate."""
     points = []
     for r_o, seen in readings(obstacle):
@@ -124,7 +128,8 @@ def followed_point(memory: np.ndarray, obstacle, p: np.ndarray, a: np.ndarray):
     if not memory[SURFACE_SEEN]:
         return nearest[1]
     kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))
-    return nearest[1] if nearest[0] < kept[0] - SWITCH else kept[1]
+    switch = nearest[0] < near or nearest[0] < kept[0] - SWITCH
+    return nearest[1] if switch else kept[1]
 
 
 def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
@@ -137,12 +142,12 @@ def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
     return False
 
 
-def _start_traversal(memory, p, v, obstacle, goal, params) -> None:
+def _start_traversal(memory, p, v, obstacle, goal, near, params) -> None:
     """A trap at p: remember the hit point and pick its axis and sign."""
     ring = memory[RING : RING + 4 * HITS].reshape(HITS, 4)
-    near = np.linalg.norm(ring[:, :3] - p, axis=1)
-    slot = int(np.argmin(near))
-    if not near[slot] < params.revisit_radius:
+    gaps = np.linalg.norm(ring[:, :3] - p, axis=1)
+    slot = int(np.argmin(gaps))
+    if not gaps[slot] < params.revisit_radius:
         slot = int(memory[RING_NEXT])
         memory[RING_NEXT] = (slot + 1) % HITS
         ring[slot] = [*p, 0.0]
@@ -157,7 +162,7 @@ def _start_traversal(memory, p, v, obstacle, goal, params) -> None:
         return
     memory[PHASE] = FOLLOW
     # The sign that continues the vehicle's motion round the surface.
-    q = followed_point(memory, obstacle, p, axis(memory, goal))
+    q = followed_point(memory, obstacle, p, axis(memory, goal), near)
     if q is not None:
         tangent = np.cross(axis(memory, goal), q - p)
         memory[SIGN] = -1.0 if tangent @ v < 0.0 else 1.0
@@ -182,10 +187,12 @@ def update_memory(
     v: np.ndarray,
     obstacle: np.ndarray,
     goal: np.ndarray,
+    collision_radius: float,
     params: EscapeParams,
 ) -> np.ndarray:
     """The memory after one step at time t, position p, velocity v and the
     readings `obstacle` (see the module docstring); a new array."""
+    near = collision_radius + params.follow_distance
     memory = memory.copy()
     phase = memory[PHASE]
     if phase == TRAPPED:
@@ -196,7 +203,7 @@ def update_memory(
         if d < memory[D_BEST] - params.progress:
             memory[D_BEST], memory[T_BEST] = d, t
         elif t - memory[T_BEST] > params.stall_time:
-            _start_traversal(memory, p, v, obstacle, goal, params)
+            _start_traversal(memory, p, v, obstacle, goal, near, params)
         return memory
     if d < memory[D_HIT] - params.leave_margin and not goal_hidden(obstacle, r_g):
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
@@ -206,7 +213,7 @@ def update_memory(
         memory[AWAY] = 1.0
     elif memory[AWAY] and gone < params.loop_radius:
         _next_axis(memory)
-    q = followed_point(memory, obstacle, p, axis(memory, goal))
+    q = followed_point(memory, obstacle, p, axis(memory, goal), near)
     if q is not None:
         memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
     return memory
@@ -225,7 +232,8 @@ def subgoal(
     if memory[PHASE] != FOLLOW:
         return goal
     a = axis(memory, goal)
-    q = followed_point(memory, obstacle, p, a)
+    near = collision_radius + params.follow_distance
+    q = followed_point(memory, obstacle, p, a, near)
     if q is None:
         if not memory[SURFACE_SEEN]:
             return goal
@@ -240,4 +248,9 @@ def subgoal(
     r = distance - collision_radius
     pull = max(-1.0, min(1.0, params.hug * (r - params.follow_distance)))
     u = t / size + pull * n
-    return p + params.lookahead * u / np.linalg.norm(u)
+    target = p + params.lookahead * u / np.linalg.norm(u)
+    # In the plane ⟂ a through the goal: circulating about ±e_z the vehicle
+    # keeps to the goal's height; about a horizontal axis, to the vertical
+    # plane through H and the goal (Bug algorithms' plane through the goal).
+    unit = a / np.linalg.norm(a)
+    return target - ((target - goal) @ unit) * unit

@@ -119,6 +119,7 @@ class EscapeNavigator(LeafSystem):
             v,
             self._obstacle.Eval(context),
             self.goal,
+            self.collision_radius,
             self.rule,
         )
         state.get_mutable_discrete_state(self._memory).SetFromVector(new)
