@@ -9,6 +9,13 @@ ended at rest at the goal or at contact as a sweep ends it, and appends one
 JSON line per flight to OUT (a flight already there is not flown again).
 Prints the table: per class and method, success / collision / timeout (and
 trapped), and the CPU seconds per integrator step.
+
+    python benchmarks/nonconvex.py --cost 3
+
+The memory's cost: random fields 0..2 of seed 0 at density 0.1 (convex,
+where mfi-nc never traps, so its flights are MFI's step for step), each
+flown by "mfi" and "mfi-nc"; prints the CPU µs per integrator step of each
+and whether the two logs are equal.
 """
 
 import argparse
@@ -17,6 +24,7 @@ import os
 
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.studies.sweep import SWEEP_ENDS
+from mfi_drake.world.generator import random_field
 from mfi_drake.world.nonconvex import KINDS, nonconvex_world
 
 METHODS = ("mfi", "mfi-paper", "apf", "gf")
@@ -56,6 +64,24 @@ def table(records: list[dict], methods, kinds) -> str:
     return "\n".join(rows)
 
 
+def memory_cost(count: int) -> None:
+    """See the module docstring (--cost)."""
+    print("| field | mfi µs/step | mfi-nc µs/step | steps | same flight |")
+    print("|---|---|---|---|---|")
+    for index in range(count):
+        world = random_field(0, index, 0.1)
+        a, b = (simulate(world, m, **SWEEP_ENDS) for m in ("mfi", "mfi-nc"))
+        same = (
+            a.times.shape == b.times.shape and (a.log["state"] == b.log["state"]).all()
+        )
+        cost = [1e6 * f.cpu_time / f.integrator_steps for f in (a, b)]
+        print(
+            f"| {world.name} | {cost[0]:.0f} | {cost[1]:.0f} | "
+            f"{a.integrator_steps} | {'yes' if same else 'no'} |",
+            flush=True,
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seed", type=int, default=0)
@@ -63,7 +89,11 @@ def main() -> None:
     parser.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     parser.add_argument("--methods", nargs="+", default=list(METHODS))
     parser.add_argument("--out", default="docs/results/nonconvex_s0.jsonl")
+    parser.add_argument("--cost", type=int, default=0, help="see the docstring")
     args = parser.parse_args()
+    if args.cost:
+        memory_cost(args.cost)
+        return
     records = []
     if os.path.exists(args.out):
         with open(args.out) as f:
