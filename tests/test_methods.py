@@ -80,7 +80,7 @@ def _short(scenario: Scenario, duration: float) -> Scenario:
 
 
 def test_registry_names_label_and_colour_every_method():
-    assert list(METHODS) == ["mfi", "mfi-paper", "apf", "gf"]
+    assert list(METHODS) == ["mfi", "mfi-paper", "apf", "gf", "mfi-nc"]
     for name, method in METHODS.items():
         assert method.name == name and method.label and method.colour
         assert resolve_method(name) is method

@@ -109,21 +109,6 @@ METHODS: dict[str, Method] = {
         parameters="mfi_paper",
         gains=_mfi_gains("mfi_paper"),
     ),
-    # MFI with the escape rule and its memory in non-convex worlds
-    # (docs/nonconvex.md): MFI's gains, its selector aimed at the goal.
-    "mfi-nc": Method(
-        name="mfi-nc",
-        label="MFI (non-convex)",
-        colour="navy",
-        navigator=lambda s, vehicle: EscapeNavigator(
-            s.navigator, _goal(s), vehicle.collision_radius
-        ),
-        goal_attraction=lambda s, vehicle: GoalAttractionSelector(
-            s.navigator, _goal(s), mass=vehicle.mass
-        ),
-        parameters="navigator",
-        gains=_mfi_gains("navigator"),
-    ),
     "apf": Method(
         name="apf",
         label="APF",
@@ -161,6 +146,21 @@ METHODS: dict[str, Method] = {
             Gain("gf.rho_0", 0.1, 0.9, log=False, fraction_of="gf.r_d"),
             Gain("gf.attraction.k_att", 0.5, 4.0),
         ),
+    ),
+    # MFI with the escape rule and its memory in non-convex worlds
+    # (docs/nonconvex.md): MFI's gains, its selector aimed at the goal.
+    "mfi-nc": Method(
+        name="mfi-nc",
+        label="MFI (non-convex)",
+        colour="navy",
+        navigator=lambda s, vehicle: EscapeNavigator(
+            s.navigator, _goal(s), vehicle.collision_radius
+        ),
+        goal_attraction=lambda s, vehicle: GoalAttractionSelector(
+            s.navigator, _goal(s), mass=vehicle.mass
+        ),
+        parameters="navigator",
+        gains=_mfi_gains("navigator"),
     ),
 }
 
