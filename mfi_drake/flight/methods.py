@@ -17,7 +17,7 @@ import math
 import os
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -147,22 +147,18 @@ METHODS: dict[str, Method] = {
             Gain("gf.attraction.k_att", 0.5, 4.0),
         ),
     ),
-    # MFI with the escape rule and its memory in non-convex worlds
-    # (docs/nonconvex.md): MFI's gains, its selector aimed at the goal.
-    "mfi-nc": Method(
-        name="mfi-nc",
-        label="MFI (non-convex)",
-        colour="navy",
-        navigator=lambda s, vehicle: EscapeNavigator(
-            s.navigator, _goal(s), vehicle.collision_radius
-        ),
-        goal_attraction=lambda s, vehicle: GoalAttractionSelector(
-            s.navigator, _goal(s), mass=vehicle.mass
-        ),
-        parameters="navigator",
-        gains=_mfi_gains("navigator"),
-    ),
 }
+# MFI with the escape rule and its memory in non-convex worlds
+# (docs/nonconvex.md): MFI's selector aimed at the goal, MFI's gains.
+METHODS["mfi-nc"] = replace(
+    METHODS["mfi"],
+    name="mfi-nc",
+    label="MFI (non-convex)",
+    colour="navy",
+    navigator=lambda s, vehicle: EscapeNavigator(
+        s.navigator, _goal(s), vehicle.collision_radius
+    ),
+)
 
 # Colours of user methods, taken in turn by a stable hash of their name.
 USER_COLOURS = ("tab:purple", "tab:orange", "tab:brown", "tab:pink", "tab:olive")
