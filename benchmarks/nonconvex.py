@@ -1,7 +1,7 @@
 """Every method on the non-convex worlds (docs/nonconvex.md).
 
     python benchmarks/nonconvex.py [--seed 0] [--count 10] [--kinds cup ...]
-        [--methods mfi mfi-nc ...] [--out docs/results/nonconvex_s0.jsonl]
+        [--methods mfi mfi-nc ...] [--out out/nonconvex_s0.jsonl]
 
 Flies worlds 0..count−1 of seed `seed` of every class of
 `world.nonconvex.KINDS` (or --kinds) with every method, one process, each
@@ -88,7 +88,7 @@ def main() -> None:
     parser.add_argument("--count", type=int, default=10)
     parser.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
     parser.add_argument("--methods", nargs="+", default=list(METHODS))
-    parser.add_argument("--out", default="docs/results/nonconvex_s0.jsonl")
+    parser.add_argument("--out", default="out/nonconvex_s0.jsonl")
     parser.add_argument("--cost", type=int, default=0, help="see the docstring")
     args = parser.parse_args()
     if args.cost:
