@@ -95,6 +95,7 @@ def main() -> None:
         memory_cost(args.cost)
         return
     records = []
+    os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
     if os.path.exists(args.out):
         with open(args.out) as f:
             records = [json.loads(line) for line in f if line.strip()]
