@@ -154,7 +154,7 @@ METHODS["mfi-nc"] = replace(
     METHODS["mfi"],
     name="mfi-nc",
     label="MFI (non-convex)",
-    colour="navy",
+    colour="darkgoldenrod",
     navigator=lambda s, vehicle: EscapeNavigator(
         s.navigator, _goal(s), vehicle.collision_radius
     ),
