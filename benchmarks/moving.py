@@ -30,7 +30,7 @@ from functools import partial
 import numpy as np
 
 from mfi_drake.files import write_json, write_section, write_text
-from mfi_drake.flight.methods import METHODS
+from mfi_drake.flight.methods import DEFAULT_METHODS
 from mfi_drake.studies.cluster import dask_client
 from mfi_drake.studies.records import read_results, record_key
 from mfi_drake.studies.stats import rate_cell
@@ -47,7 +47,7 @@ WAYS = {
 def runs(args) -> list[tuple[float, str, list[str]]]:
     """(speed, way, methods) of each run, in the order flown (speed 0:
     static)."""
-    every = list(METHODS)
+    every = list(DEFAULT_METHODS)
     ablation = args.ablation_methods.split(",")
     out = [(speed, "relative, own pace", every) for speed in args.speeds]
     out += [(args.ablation_speed, way, ablation) for way in list(WAYS)[1:]]

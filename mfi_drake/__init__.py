@@ -47,6 +47,7 @@ _API = {
     "simulate": "mfi_drake.flight.simulation",
     "Flight": "mfi_drake.flight.result",
     "METHODS": "mfi_drake.flight.methods",
+    "DEFAULT_METHODS": "mfi_drake.flight.methods",
     "NavigationStep": "mfi_drake.flight.step",
     "StepOutput": "mfi_drake.flight.step",
     "add_navigation": "mfi_drake.flight.builder",

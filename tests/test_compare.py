@@ -169,7 +169,7 @@ def test_reproduce_writes_every_figure_and_results(tmp_path, capsys):
     text = (out / "results.md").read_text()
     for label in ("MFI", "MFI (paper)", "APF", "GF"):
         assert text.count(f"| {label} |") == len(PAPER_SCENARIOS)
-    assert text.count("| planar_wall |") == 4
+    assert text.count("| planar_wall |") == 4  # the default methods'
     # Four claims, judged with the default MFI and with the paper's; in 0.5 s
     # nothing reaches its goal, so only claim 1 (APF stops short) can hold.
     assert text.count("did not hold") + text.count("**held**") == 8

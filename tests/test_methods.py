@@ -18,7 +18,12 @@ from mfi_drake.app.cli import main
 from mfi_drake.config.scenario import Obstacle, Scenario, Sphere
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import build_diagram
-from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
+from mfi_drake.flight.methods import (
+    DEFAULT_METHODS,
+    METHODS,
+    MethodError,
+    resolve_method,
+)
 from mfi_drake.flight.simulator import fly
 from mfi_drake.maths.baselines import apf_obstacle_field, attraction_field
 from mfi_drake.systems.navigation import UserFieldError
@@ -80,7 +85,9 @@ def _short(scenario: Scenario, duration: float) -> Scenario:
 
 
 def test_registry_names_label_and_colour_every_method():
-    assert list(METHODS) == ["mfi", "mfi-paper", "apf", "gf"]
+    assert list(METHODS) == ["mfi", "mfi-paper", "apf", "gf", "mfi-nc"]
+    # The paper's comparison and the published tables fly these unless told.
+    assert DEFAULT_METHODS == ("mfi", "mfi-paper", "apf", "gf")
     for name, method in METHODS.items():
         assert method.name == name and method.label and method.colour
         assert resolve_method(name) is method

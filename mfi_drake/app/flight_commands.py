@@ -23,7 +23,7 @@ from mfi_drake.app.arguments import (
     parse_methods,
     scenario_of,
 )
-from mfi_drake.flight.methods import METHODS, resolve_method
+from mfi_drake.flight.methods import DEFAULT_METHODS, METHODS, resolve_method
 
 
 def summary_line(metrics: dict) -> str:
@@ -249,7 +249,7 @@ def add_compare(sub) -> None:
     comp.add_argument(
         "--methods",
         metavar="M,M,...",
-        default=",".join(METHODS),
+        default=",".join(DEFAULT_METHODS),
         help="distinct names or MODULE:NAME, separated by commas",
     )
     add_flight_outputs(comp, "print every method's metrics as one JSON object")

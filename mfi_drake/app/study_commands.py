@@ -29,7 +29,7 @@ from mfi_drake.app.arguments import (
     parse_methods,
 )
 from mfi_drake.config.scenario_yaml import layered_name, read_faults
-from mfi_drake.flight.methods import METHODS
+from mfi_drake.flight.methods import DEFAULT_METHODS
 from mfi_drake.world.validation import validate_scenario
 
 
@@ -150,7 +150,7 @@ def cmd_sweep(args) -> int:
         variant_name,
     )
 
-    methods = parse_methods(args.methods) if args.methods else list(METHODS)
+    methods = parse_methods(args.methods) if args.methods else list(DEFAULT_METHODS)
     check_sweep_numbers(args)
     config, tasks = sweep_config(
         args,
@@ -279,7 +279,7 @@ def add_sweep(sub) -> None:
         "--methods",
         metavar="M,M,...",
         help="distinct names or MODULE:NAME, separated by commas, e.g. mfi,apf,gf "
-        f"(default: every method of the registry: {','.join(METHODS)})",
+        f"(default: every method of the registry: {','.join(DEFAULT_METHODS)})",
     )
     add_random_field(sweep, several=True)
     sweep.add_argument(
@@ -396,7 +396,7 @@ def add_tune(sub) -> None:
     tune.add_argument(
         "--methods",
         metavar="M,M,...",
-        default=",".join(METHODS),
+        default=",".join(DEFAULT_METHODS),
         help="distinct names or MODULE:NAME, separated by commas",
     )
     tune.add_argument(

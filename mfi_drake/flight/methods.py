@@ -17,12 +17,13 @@ import math
 import os
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import Vehicle
+from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.navigation import (
     ApfNavigator,
     GfNavigator,
@@ -63,6 +64,9 @@ class Method:
     goal_attraction: Callable[[Scenario, Vehicle], object]  # the goal attraction
     parameters: str | None = None  # the Scenario field holding its gains
     gains: tuple[Gain, ...] = ()  # its documented free gains, for `tune`
+    # Flown by compare, reproduce, sweep and tune when no --methods is given
+    # (`DEFAULT_METHODS`): the paper's comparison and every published table.
+    in_defaults: bool = True
 
 
 def _mfi_gains(key: str) -> tuple[Gain, ...]:
@@ -147,6 +151,20 @@ METHODS: dict[str, Method] = {
         ),
     ),
 }
+# MFI with the escape rule and its memory in non-convex worlds
+# (docs/nonconvex.md): MFI's selector aimed at the goal, MFI's gains.
+METHODS["mfi-nc"] = replace(
+    METHODS["mfi"],
+    name="mfi-nc",
+    label="MFI (non-convex)",
+    colour="darkgoldenrod",
+    in_defaults=False,  # a first stage (docs/nonconvex.md), not yet tuned
+    navigator=lambda s, vehicle: EscapeNavigator(
+        s.navigator, _goal(s), vehicle.collision_radius
+    ),
+)
+# The methods flown where none is named.
+DEFAULT_METHODS = tuple(name for name, m in METHODS.items() if m.in_defaults)
 
 # Colours of user methods, taken in turn by a stable hash of their name.
 USER_COLOURS = ("tab:purple", "tab:orange", "tab:brown", "tab:pink", "tab:olive")

@@ -9,7 +9,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.flight.fleet import check_one_integrator
-from mfi_drake.flight.methods import METHODS, Method, appearance
+from mfi_drake.flight.methods import DEFAULT_METHODS, METHODS, Method, appearance
 from mfi_drake.flight.result import Flight, outcome
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.world.validation import load_scenario
@@ -191,7 +191,7 @@ def fly_paper_scenario(
     """Flies the scenario file `path` with every method of the registry;
     returns the metrics by method."""
     scenario = load_scenario(path, overrides)
-    flights = compare(scenario, list(METHODS))
+    flights = compare(scenario, list(DEFAULT_METHODS))
     if draw is not None:
         draw(os.path.splitext(os.path.basename(path))[0], scenario, flights)
     return {f.method: f.metrics for f in flights}
@@ -262,7 +262,7 @@ def reproduction_report(results: Results, layered: list[str] = ()) -> str:
             [
                 "# The paper's §VI-A comparison, reproduced",
                 "Written by `mfi-drake reproduce`: each scenario flown by "
-                + ", ".join(m.label for m in METHODS.values())
+                + ", ".join(METHODS[m].label for m in DEFAULT_METHODS)
                 + " on the same vehicle, sensor and attitude chain, "
                 + f"{flown_with(layered)}.",
                 results_table(metrics),

@@ -58,7 +58,7 @@ from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.fleet import check_one_integrator
-from mfi_drake.flight.methods import METHODS, resolve_method
+from mfi_drake.flight.methods import DEFAULT_METHODS, resolve_method
 from mfi_drake.flight.result import outcome
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.studies.cluster import Progress, Task, run_tasks
@@ -80,7 +80,7 @@ SENSORS = {"sphere": SphereSensor, "depth": DepthCamera}
 class SweepConfig:
     n: int = 30  # fields per density
     seed: int = 0
-    methods: list[str] = field(default_factory=lambda: list(METHODS))
+    methods: list[str] = field(default_factory=lambda: list(DEFAULT_METHODS))
     densities: list[float] = field(
         default_factory=lambda: [generator.DEFAULT_DENSITY]
     )  # obstacles per m³ (generator.Workspace)

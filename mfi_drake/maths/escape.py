@@ -1,0 +1,256 @@
+"""The escape rule of MFI in non-convex worlds (method "mfi-nc",
+docs/nonconvex.md), as plain numpy functions on a fixed-size memory.
+
+MFI's goal attraction (eq 16–18) pulls the vehicle back into a cup or a
+room's far wall, where eq 12's boundary following turns it to and fro: it
+stalls. The rule is a Bug algorithm's two modes of motion, after 3DBug
+(Kamon, Rimon, Rivlin, ICRA 1999, "Range-sensor based navigation in three
+dimensions"): motion toward the goal (MFI itself), and traversal of the
+obstacle's surface until a leave condition holds; a loop round the surface
+without leaving means the goal cannot be reached that way. It is realised
+as MFI's own fields aimed at a moving target (a subgoal) instead of the
+goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
+
+- Trap detection: the best distance to the goal so far, d_best, has not
+  fallen by `progress` for `stall_time` seconds (going round the same
+  surface makes no progress either).
+- Traversal: the hit point H and d_hit = d_best are remembered; the vehicle
+  circulates round the surface about a fixed axis a, as a current round
+  the obstacle (the picture of MFI; Ataka et al., Front. Robot. AI 9, 2022,
+  doi 10.3389/frobt.2022.834177, keep a current's direction to get round
+  concave obstacles): its subgoal lies `lookahead` ahead along
+  u = t + κ (r − r_f) n, t = a × n / |a × n|, where n points to the followed
+  surface's closest point (the nearest reading not within 45° of ±a, else
+  the last one remembered) at clearance r, so that it hugs the surface at
+  r_f, moved into the plane ⟂ a through the goal (the goal's height for
+  ±e_z). The first axis is ±e_z, the sign that continues the vehicle's motion
+  (it goes round horizontally the way it was going); then −that; then the
+  horizontal axis ⟂ the goal direction, both signs (over and under).
+- Leave: |r_g| < d_hit − `leave_margin` and no seen surface's tangent plane
+  hides the goal (3DBug's leaving condition, with the tangent plane at the
+  closest point as the local range data).
+- Loop: back within `loop_radius` of H after having been 2·loop_radius
+  away, the axis is exhausted and the next one is taken; a new trap within
+  `revisit_radius` of a remembered hit point resumes at that point's next
+  axis. When all four axes are exhausted the goal is declared unreachable:
+  the phase is TRAPPED for good (3DBug: a loop without a leave ends the
+  search).
+
+The memory (`MEMORY_SIZE` floats, a fixed layout below) is bounded in size
+by construction, and in age: the progress record spans at most
+`stall_time`, and only the last `HITS` hit points are kept (a ring).
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mfi_drake.maths.layout import readings
+
+# Phases of the memory.
+TOWARD = 0  # MFI toward the goal
+FOLLOW = 1  # traversal of a surface toward a subgoal
+TRAPPED = 2  # every axis exhausted: the goal cannot be reached
+AXES = 4  # ±e_z, ± the horizontal ⟂ the goal direction
+HITS = 4  # hit points remembered (a ring)
+
+# The memory's layout: one float vector.
+PHASE, D_BEST, T_BEST = 0, 1, 2
+HIT = slice(3, 6)  # H, where the current traversal began
+D_HIT, AXIS, SIGN, AWAY = 6, 7, 8, 9  # AWAY: 2·loop_radius from H since
+SURFACE = slice(10, 13)  # the followed surface's last closest point
+SURFACE_SEEN = 13  # 1 once SURFACE holds a point
+RING_NEXT = 14  # the ring's next slot
+RING = 15  # HITS rows of [x, y, z, next axis]
+MEMORY_SIZE = RING + 4 * HITS
+
+E_Z = np.array([0.0, 0.0, 1.0])
+SWITCH = 0.25  # m, see followed_point
+
+
+@dataclass(frozen=True)
+class EscapeParams:
+    """The escape rule's constants (see the module docstring)."""
+
+    stall_time: float = 15.0  # s without progress: trapped at a surface
+    progress: float = 0.5  # m, the least gain in d_best that is progress
+    follow_distance: float = 0.45  # m, r_f: the clearance hugged while following
+    hug: float = 1.0  # 1/m, κ: how hard the subgoal pulls toward r_f
+    lookahead: float = 3.0  # m, the subgoal's distance ahead
+    follow_speed: float = 0.5  # m/s, eq 19's v_d while following
+    leave_margin: float = 0.3  # m, leave only this much nearer than d_hit
+    loop_radius: float = 1.0  # m, back this near H: a loop is closed
+    revisit_radius: float = 1.5  # m, a trap this near a hit point resumes it
+
+
+def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """The memory at the start (t = 0): toward the goal, d_best = |r_g|."""
+    memory = np.zeros(MEMORY_SIZE)
+    memory[D_BEST] = np.linalg.norm(goal - p)
+    memory[RING : RING + 4 * HITS] = np.tile([np.inf, np.inf, np.inf, 0.0], HITS)
+    return memory
+
+
+def axis(memory: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """The circulation axis a of the traversal in `memory`: k = 0, 1 are
+    ±e_z (horizontal circulation), 2, 3 ± the horizontal unit ⟂ the
+    direction from H to the goal (vertical circulation), each times the
+    traversal's sign."""
+    k, sign = int(memory[AXIS]), memory[SIGN]
+    if k < 2:
+        return sign * (1.0 if k == 0 else -1.0) * E_Z
+    side = np.cross(E_Z, goal - memory[HIT])
+    size = np.linalg.norm(side)
+    side = side / size if size > 1e-9 else np.array([0.0, 1.0, 0.0])
+    return sign * (1.0 if k == 2 else -1.0) * side
+
+
+def followed_point(
+    memory: np.ndarray, obstacle, p: np.ndarray, a: np.ndarray, near: float
+):
+    """The closest point (world frame) of the followed surface: among the
+    seen readings whose direction is not within 45° of ±a (walls, not the
+    ground or a ceiling, for a = ±e_z), the one whose point lies nearest the
+    followed point remembered, unless the nearest is closer than `near`
+    (the hugged distance of centre) or `SWITCH` nearer than that one: a
+    wall ahead takes over at a concave corner, and at a doorway the jamb
+    being rounded is kept, not the far one. The nearest where none is
+    remembered; None if there is no candidate."""
+    points = []
+    for r_o, seen in readings(obstacle):
+        distance = np.linalg.norm(r_o)
+        if seen > 0.5 and distance > 1e-9 and abs(r_o @ a) < math.sqrt(0.5) * distance:
+            points.append((distance, p + r_o))
+    if not points:
+        return None
+    nearest = points[0]  # readings come nearest first
+    if not memory[SURFACE_SEEN]:
+        return nearest[1]
+    kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))
+    switch = nearest[0] < near or nearest[0] < kept[0] - SWITCH
+    return nearest[1] if switch else kept[1]
+
+
+def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
+    """Whether a seen surface's tangent plane at its closest point lies
+    between the vehicle and the goal: r_g·n > |r_o|."""
+    for r_o, seen in readings(obstacle):
+        distance = np.linalg.norm(r_o)
+        if seen > 0.5 and distance > 1e-9 and r_g @ r_o > distance * distance:
+            return True
+    return False
+
+
+def _start_traversal(memory, p, v, obstacle, goal, near, params) -> None:
+    """A trap at p: remember the hit point and pick its axis and sign."""
+    ring = memory[RING : RING + 4 * HITS].reshape(HITS, 4)
+    gaps = np.linalg.norm(ring[:, :3] - p, axis=1)
+    slot = int(np.argmin(gaps))
+    if not gaps[slot] < params.revisit_radius:
+        slot = int(memory[RING_NEXT])
+        memory[RING_NEXT] = (slot + 1) % HITS
+        ring[slot] = [*p, 0.0]
+    k = int(ring[slot, 3])
+    memory[HIT] = p
+    memory[D_HIT] = memory[D_BEST]
+    memory[AWAY] = memory[SURFACE_SEEN] = 0.0
+    memory[AXIS] = k
+    memory[SIGN] = 1.0
+    if k >= AXES:
+        memory[PHASE] = TRAPPED
+        return
+    memory[PHASE] = FOLLOW
+    # The sign that continues the vehicle's motion round the surface.
+    q = followed_point(memory, obstacle, p, axis(memory, goal), near)
+    if q is not None:
+        tangent = np.cross(axis(memory, goal), q - p)
+        memory[SIGN] = -1.0 if tangent @ v < 0.0 else 1.0
+
+
+def _next_axis(memory: np.ndarray) -> None:
+    """The traversal closed a loop round H: take the next axis."""
+    ring = memory[RING : RING + 4 * HITS].reshape(HITS, 4)
+    k = int(memory[AXIS]) + 1
+    slot = int(np.argmin(np.linalg.norm(ring[:, :3] - memory[HIT], axis=1)))
+    ring[slot, 3] = k
+    memory[AXIS] = k
+    memory[AWAY] = 0.0
+    if k >= AXES:
+        memory[PHASE] = TRAPPED
+
+
+def update_memory(
+    memory: np.ndarray,
+    t: float,
+    p: np.ndarray,
+    v: np.ndarray,
+    obstacle: np.ndarray,
+    goal: np.ndarray,
+    collision_radius: float,
+    params: EscapeParams,
+) -> np.ndarray:
+    """The memory after one step at time t, position p, velocity v and the
+    readings `obstacle` (see the module docstring); a new array."""
+    near = collision_radius + params.follow_distance
+    memory = memory.copy()
+    phase = memory[PHASE]
+    if phase == TRAPPED:
+        return memory
+    r_g = goal - p
+    d = float(np.linalg.norm(r_g))
+    if phase == TOWARD:
+        if d < memory[D_BEST] - params.progress:
+            memory[D_BEST], memory[T_BEST] = d, t
+        elif t - memory[T_BEST] > params.stall_time:
+            _start_traversal(memory, p, v, obstacle, goal, near, params)
+        return memory
+    if d < memory[D_HIT] - params.leave_margin and not goal_hidden(obstacle, r_g):
+        memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
+        return memory
+    gone = np.linalg.norm(p - memory[HIT])
+    if gone > 2.0 * params.loop_radius:
+        memory[AWAY] = 1.0
+    elif memory[AWAY] and gone < params.loop_radius:
+        _next_axis(memory)
+    q = followed_point(memory, obstacle, p, axis(memory, goal), near)
+    if q is not None:
+        memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
+    return memory
+
+
+def subgoal(
+    memory: np.ndarray,
+    p: np.ndarray,
+    obstacle: np.ndarray,
+    goal: np.ndarray,
+    collision_radius: float,
+    params: EscapeParams,
+) -> np.ndarray:
+    """The point MFI steers to: the goal, or while following, `lookahead`
+    ahead along u = t + κ (r − r_f) n (see the module docstring)."""
+    if memory[PHASE] != FOLLOW:
+        return goal
+    a = axis(memory, goal)
+    near = collision_radius + params.follow_distance
+    q = followed_point(memory, obstacle, p, a, near)
+    if q is None:
+        if not memory[SURFACE_SEEN]:
+            return goal
+        q = memory[SURFACE]
+    r_o = q - p
+    distance = float(np.linalg.norm(r_o))
+    n = r_o / distance
+    t = np.cross(a, n)
+    size = np.linalg.norm(t)
+    if size < 1e-6:
+        return goal
+    r = distance - collision_radius
+    pull = max(-1.0, min(1.0, params.hug * (r - params.follow_distance)))
+    u = t / size + pull * n
+    target = p + params.lookahead * u / np.linalg.norm(u)
+    # In the plane ⟂ a through the goal: circulating about ±e_z the vehicle
+    # keeps to the goal's height; about a horizontal axis, to the vertical
+    # plane through H and the goal (Bug algorithms' plane through the goal).
+    unit = a / np.linalg.norm(a)
+    return target - ((target - goal) @ unit) * unit

@@ -1,0 +1,167 @@
+"""`EscapeNavigator`: MFI with the escape rule of `maths.escape` and the
+memory it builds in flight, for method "mfi-nc" (docs/nonconvex.md).
+
+The memory is the system's one discrete state group (`escape.MEMORY_SIZE`
+floats), set at initialization and updated by a per-step unrestricted
+update event: a flight is deterministic and replayable, and the event
+forces no step boundaries, so until the first trap the flight is MFI's
+step for step. Once the memory says TRAPPED the event ends the flight
+(`EventStatus.ReachedTermination`, message `TRAPPED_MESSAGE`): the goal
+cannot be reached.
+
+Method "mfi-nc" pairs it with MFI's `GoalAttractionSelector` aimed at the
+goal (eq 16–21 unchanged, the terminal PD included). While the memory
+follows a surface, MFI's fields are aimed at the subgoal ĝ instead: F_o is
+eq 11–15 with r_g = ĝ − p, and "obstacle_force" adds the redirection
+F_gc(ĝ) − F_gc(g) (eq 16–18), which turns the selector's cruise pull
+toward the goal into one toward ĝ (repair (g)'s drag then sees F_o +
+F_gc(ĝ), the turning force flown). The redirection is ⟂ v, as F_gc is:
+it does no work. "obstacle_force_terms" holds [F, F_a + redirection].
+Float only: `analyze` linearises the memoryless chain (`MfiNavigator`).
+"""
+
+import copy
+
+import numpy as np
+from pydrake.systems.framework import EventStatus, LeafSystem
+
+from mfi_drake.maths import escape, fields
+from mfi_drake.maths.layout import (
+    OBSTACLE_SIGNAL_SIZE,
+    STATE_SIZE,
+    position_velocity,
+)
+from mfi_drake.systems.last_result import LastResult
+
+DEFAULT_RULE = escape.EscapeParams()
+TRAPPED_MESSAGE = "trapped: the escape rule has run out of options"
+
+
+class EscapeNavigator(LeafSystem):
+    """MFI's obstacle field aimed at the escape rule's subgoal, with the
+    memory as discrete state (see the module docstring).
+
+    .. pydrake_system::
+
+        name: EscapeNavigator
+        input_ports:
+        - state
+        - obstacle
+        output_ports:
+        - obstacle_force
+        - obstacle_force_terms
+        - escape
+
+    "escape": [phase, subgoal (3)] (`escape.TOWARD`, FOLLOW or TRAPPED).
+    """
+
+    def __init__(
+        self,
+        params,
+        goal,
+        collision_radius: float,
+        rule: escape.EscapeParams = DEFAULT_RULE,
+    ):
+        super().__init__()
+        self.params = copy.deepcopy(params)
+        self.rule = rule
+        self.goal = np.array(goal, dtype=float)
+        self.collision_radius = float(collision_radius)
+        self._last = LastResult()
+        self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
+        self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
+        self._memory = self.DeclareDiscreteState(escape.MEMORY_SIZE)
+        tickets = {
+            self._state.ticket(),
+            self._obstacle.ticket(),
+            self.discrete_state_ticket(self._memory),
+        }
+        self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
+        self.DeclarePerStepUnrestrictedUpdateEvent(self._update)
+        self.DeclareVectorOutputPort(
+            "obstacle_force",
+            3,
+            lambda context, out: out.SetFromVector(self._terms(context)[2]),
+            prerequisites_of_calc=tickets,
+        )
+        self.DeclareVectorOutputPort(
+            "obstacle_force_terms",
+            6,
+            lambda context, out: out.SetFromVector(
+                np.concatenate(self._terms(context)[:2])
+            ),
+            prerequisites_of_calc=tickets,
+        )
+        self.DeclareVectorOutputPort(
+            "escape",
+            4,
+            lambda context, out: out.SetFromVector(
+                [self.memory(context)[escape.PHASE], *self._terms(context)[3]]
+            ),
+            prerequisites_of_calc=tickets,
+        )
+
+    def memory(self, context) -> np.ndarray:
+        return context.get_discrete_state_vector().CopyToVector()
+
+    def _initialize(self, context, state):
+        p, _ = position_velocity(self._state.Eval(context))
+        memory = escape.initial_memory(p, self.goal)
+        state.get_mutable_discrete_state(self._memory).SetFromVector(memory)
+
+    def _update(self, context, state):
+        memory = self.memory(context)
+        p, v = position_velocity(self._state.Eval(context))
+        new = escape.update_memory(
+            memory,
+            context.get_time(),
+            p,
+            v,
+            self._obstacle.Eval(context),
+            self.goal,
+            self.collision_radius,
+            self.rule,
+        )
+        state.get_mutable_discrete_state(self._memory).SetFromVector(new)
+        if new[escape.PHASE] == escape.TRAPPED:
+            return EventStatus.ReachedTermination(self, TRAPPED_MESSAGE)
+        if np.array_equal(new, memory):
+            return EventStatus.DidNothing()
+        return EventStatus.Succeeded()
+
+    def _terms(self, context):
+        """(F, F_a + redirection, F_o, subgoal), computed once for the
+        outputs."""
+        x = self._state.Eval(context)
+        obstacle = self._obstacle.Eval(context)
+        memory = self.memory(context)
+        key = x.tobytes() + obstacle.tobytes() + memory.tobytes()
+        return self._last(key, self.terms_of, x, obstacle, memory)
+
+    def terms_of(self, x, obstacle, memory) -> tuple:
+        p, v = position_velocity(x)
+        target = escape.subgoal(
+            memory, p, obstacle, self.goal, self.collision_radius, self.rule
+        )
+        A, B = fields.superposed(
+            fields.obstacle_field,
+            v,
+            obstacle,
+            target - p,
+            self.collision_radius,
+            self.params,
+        )
+        if target is not self.goal:
+            smooth = self.params.smooth_goal_turn
+            K = self.params.K_omega
+            # Eq 19 at the following speed instead of v_d.
+            slower = fields.speed_control_field(
+                v, self.params.K_v, self.rule.follow_speed
+            ) - fields.speed_control_field(v, self.params.K_v, self.params.v_d)
+            B = (
+                B
+                + fields.goal_attraction_field(v, target - p, K, smooth)
+                - fields.goal_attraction_field(v, self.goal - p, K, smooth)
+                + slower
+            )
+        return A, B, A + B, target

@@ -1,0 +1,188 @@
+"""The escape rule and its memory (maths.escape, systems.escape, method
+"mfi-nc"; docs/nonconvex.md)."""
+
+import numpy as np
+import pytest
+
+from mfi_drake.config import scenario as sc
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.flight.diagram import build_diagram
+from mfi_drake.flight.result import flight_metrics
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.flight.simulator import logged, start_simulator
+from mfi_drake.maths import escape
+from mfi_drake.maths.layout import obstacle_signal
+from mfi_drake.systems.escape import TRAPPED_MESSAGE
+from mfi_drake.world.nonconvex import THICKNESS, box, nonconvex_world
+
+RULE = escape.EscapeParams()
+RADIUS = VEHICLES["drake_default"].collision_radius
+GOAL = np.array([10.0, 0.0, 2.0])
+WALL = obstacle_signal([np.array([0.6, 0.0, 0.0])])  # a wall 0.6 m ahead (+x)
+
+
+def step(memory, t, p, v=(1.0, 0.0, 0.0), obstacle=WALL):
+    p, v = np.asarray(p, float), np.asarray(v, float)
+    return escape.update_memory(memory, t, p, v, obstacle, GOAL, RADIUS, RULE)
+
+
+def stalled(p=(5.0, 0.0, 2.0), v=(0.0, 1.0, 0.0)):
+    """The memory of a vehicle that has sat at p since t = 0, one step past
+    the stall time."""
+    memory = escape.initial_memory(np.asarray(p, float), GOAL)
+    return step(memory, RULE.stall_time + 0.01, p, v)
+
+
+def test_trap_detection_fires_after_the_stall_time_and_not_before():
+    p = np.array([5.0, 0.0, 2.0])
+    memory = escape.initial_memory(p, GOAL)
+    assert memory[escape.D_BEST] == pytest.approx(5.0)
+    before = step(memory, RULE.stall_time - 0.01, p)
+    assert before[escape.PHASE] == escape.TOWARD
+    after = step(memory, RULE.stall_time + 0.01, p)
+    assert after[escape.PHASE] == escape.FOLLOW
+    assert np.array_equal(after[escape.HIT], p)
+    assert after[escape.D_HIT] == pytest.approx(5.0)
+    # Progress of more than `progress` resets the clock.
+    moved = step(memory, RULE.stall_time - 1.0, p + [RULE.progress + 0.01, 0, 0])
+    later = step(moved, RULE.stall_time + 0.01, p + [RULE.progress + 0.01, 0, 0])
+    assert later[escape.PHASE] == escape.TOWARD
+
+
+def test_the_first_side_continues_the_motion():
+    """Wall ahead along +x (n = e_x): moving +y, the tangent a × n must
+    point +y, and e_z × e_x = e_y, so a = +e_z; moving −y, a = −e_z."""
+    up = stalled(v=(0.0, 1.0, 0.0))
+    down = stalled(v=(0.0, -1.0, 0.0))
+    assert escape.axis(up, GOAL) == pytest.approx([0.0, 0.0, 1.0])
+    assert escape.axis(down, GOAL) == pytest.approx([0.0, 0.0, -1.0])
+
+
+def test_subgoal_by_hand():
+    """Following the wall at +x (0.6 m from the centre) about +e_z: t = +y,
+    clearance r = 0.6 − R, so u = t + κ (r − r_f) n and the subgoal is
+    `lookahead` along u, at the goal's height."""
+    memory = stalled(p=(5.0, 0.0, 1.0), v=(0.0, 1.0, 0.0))
+    p = np.array([5.0, 0.0, 1.0])
+    target = escape.subgoal(memory, p, WALL, GOAL, RADIUS, RULE)
+    pull = RULE.hug * (0.6 - RADIUS - RULE.follow_distance)
+    u = np.array([pull, 1.0, 0.0]) / np.hypot(pull, 1.0)
+    expected = p + RULE.lookahead * u
+    expected[2] = GOAL[2]
+    assert target == pytest.approx(expected)
+    # Toward the goal the subgoal is the goal itself.
+    fresh = escape.initial_memory(p, GOAL)
+    assert escape.subgoal(fresh, p, WALL, GOAL, RADIUS, RULE) is GOAL
+
+
+def test_leave_when_nearer_than_the_hit_and_the_goal_is_in_view():
+    memory = stalled()
+    nearer = [5.5, -1.0, 2.0]  # |r_g| = 4.61 < 5 − margin
+    # The goal lies behind the wall's tangent plane: no leave.
+    behind = obstacle_signal([np.array([0.5, 0.0, 0.0])])
+    assert step(memory, 20.0, nearer, obstacle=behind)[escape.PHASE] == escape.FOLLOW
+    # A wall beside (−y) hides nothing: leave, with a fresh progress record.
+    beside = obstacle_signal([np.array([0.0, -0.5, 0.0])])
+    left = step(memory, 20.0, nearer, obstacle=beside)
+    assert left[escape.PHASE] == escape.TOWARD
+    assert left[escape.T_BEST] == 20.0
+    # Not nearer than d_hit − margin: no leave.
+    far = [5.0, 3.0, 2.0]
+    assert step(memory, 20.0, far, obstacle=beside)[escape.PHASE] == escape.FOLLOW
+
+
+def test_four_loops_exhaust_the_axes_and_the_memory_is_bounded():
+    """Going away from H and back closes a loop: the next axis; after the
+    fourth, TRAPPED for good. The memory never changes size, and its ring
+    holds at most HITS hit points."""
+    memory = stalled()
+    hit = memory[escape.HIT].copy()
+    t = 10.0
+    for k in range(escape.AXES):
+        assert memory[escape.AXIS] == k and memory[escape.PHASE] == escape.FOLLOW
+        away = hit + [0.0, 3.0 * RULE.loop_radius, 0.0]
+        memory = step(memory, t, away, obstacle=obstacle_signal([]))
+        memory = step(memory, t + 1.0, hit, obstacle=obstacle_signal([]))
+        t += 2.0
+        assert memory.shape == (escape.MEMORY_SIZE,)
+    assert memory[escape.PHASE] == escape.TRAPPED
+    assert np.array_equal(step(memory, t, hit), memory)
+    # Traps at many places: the ring keeps the last HITS.
+    rng = np.random.default_rng(0)
+    memory = escape.initial_memory(np.zeros(3), GOAL)
+    for _ in range(50):
+        p = rng.uniform(-20.0, 20.0, size=3)
+        memory[escape.PHASE], memory[escape.T_BEST] = escape.TOWARD, 0.0
+        memory[escape.D_BEST] = np.linalg.norm(GOAL - p)
+        memory = step(memory, RULE.stall_time + 1.0, p)
+        assert memory.shape == (escape.MEMORY_SIZE,)
+    ring = memory[escape.RING :].reshape(escape.HITS, 4)
+    assert np.isfinite(ring[:, :3]).all()  # every slot used, none added
+
+
+def sealed_box() -> sc.Scenario:
+    """A closed 2 m cube (walls 0.2 m) round the goal, the start 6 m away:
+    a goal nothing can reach."""
+    goal = np.array([6.0, 0.0, 2.0])
+    half, outer = 1.0 + THICKNESS / 2, 2.0 + 2 * THICKNESS
+    walls = []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            centre = goal.copy()
+            centre[axis] += sign * half
+            size = [outer] * 3
+            size[axis] = THICKNESS
+            walls.append(box(centre, size))
+    return sc.Scenario(
+        name="sealed_box",
+        start=[0.0, 0.0, 2.0],
+        goal=goal.tolist(),
+        duration=300.0,
+        obstacles=walls,
+    )
+
+
+def test_a_goal_in_a_closed_box_ends_trapped():
+    """The rule runs out of options (four loops round the box) and ends the
+    flight itself, long before the time limit, without contact."""
+    flight = build_diagram(sealed_box(), "mfi-nc")
+    simulator = start_simulator(flight, True, True)
+    status = simulator.AdvanceTo(flight.scenario.duration)
+    assert status.FormatMessage().find(TRAPPED_MESSAGE) >= 0
+    assert simulator.get_context().get_time() < 250.0
+    result = logged(flight, simulator, 1.0, 1.0)  # wall, CPU time: unused
+    metrics = flight_metrics(result)
+    assert metrics["min_clearance"] > 0.0 and not metrics["reached"]
+
+
+# Training worlds (seed 0) of every class, of several sizes and
+# orientations, flown by mfi-nc: each reaches its goal without contact.
+WORLDS = [
+    ("cup", 0),
+    ("cup", 1),
+    ("room_exit", 1),
+    ("room_entry", 0),
+    ("room_entry", 2),
+    ("cave", 0),
+    ("bent_corridor", 0),
+    ("window_wall", 0),
+]
+
+
+@pytest.mark.parametrize(("kind", "index"), WORLDS)
+def test_mfi_nc_reaches_the_goal_of_each_class(kind, index):
+    world = nonconvex_world(kind, 0, index)
+    metrics = simulate(world, "mfi-nc", until_settled=True).metrics
+    assert metrics["outcome"] == "success", metrics["final_error"]
+    assert metrics["min_clearance"] > 0.0
+    assert metrics["convergence_time"] < world.duration
+
+
+def test_two_flights_are_equal():
+    """The memory is Drake state updated by declared events: the same
+    flight twice is the same log, bit for bit, escape included."""
+    world = nonconvex_world("cup", 0, 0)
+    world.duration = 35.0
+    first, second = simulate(world, "mfi-nc"), simulate(world, "mfi-nc")
+    assert np.array_equal(first.log["state"], second.log["state"])
+    assert np.array_equal(first.times, second.times)
