@@ -87,7 +87,6 @@ def simulator(diagram, accuracy: float) -> Simulator:
             integration_scheme="runge_kutta3",
             accuracy=accuracy,
             max_step_size=0.01,
-            publish_every_time_step=False,
         ),
         sim,
     )
