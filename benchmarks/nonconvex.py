@@ -22,12 +22,12 @@ import argparse
 import json
 import os
 
+from mfi_drake.flight.methods import DEFAULT_METHODS
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.studies.sweep import SWEEP_ENDS
 from mfi_drake.world.generator import random_field
 from mfi_drake.world.nonconvex import KINDS, nonconvex_world
 
-METHODS = ("mfi", "mfi-paper", "apf", "gf")
 OUTCOMES = ("success", "collision", "timeout", "trapped")
 
 
@@ -87,7 +87,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--count", type=int, default=10)
     parser.add_argument("--kinds", nargs="+", default=list(KINDS), choices=KINDS)
-    parser.add_argument("--methods", nargs="+", default=list(METHODS))
+    parser.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS))
     parser.add_argument("--out", default="out/nonconvex_s0.jsonl")
     parser.add_argument("--cost", type=int, default=0, help="see the docstring")
     args = parser.parse_args()

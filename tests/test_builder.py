@@ -67,6 +67,17 @@ def yard_clearance(p: np.ndarray) -> np.ndarray:
     return np.minimum(np.minimum(box, post), boulder)
 
 
+def fly_from_start(builder, handles, duration: float = 30.0):
+    """Builds the user's diagram, flies it with their own Simulator (and the
+    one line eq 21's witnesses need) from START; the logged (times, log)."""
+    simulator = Simulator(builder.Build())
+    apply_simulator_config(default_simulator_config(), simulator)
+    context = simulator.get_mutable_context()
+    handles.set_start(context, START)
+    simulator.AdvanceTo(duration)
+    return handles.read_log(context)
+
+
 def test_a_users_yard_flies_as_the_scenario_of_the_same_shapes():
     builder = DiagramBuilder()
     _, scene_graph = yard(builder)
@@ -74,12 +85,7 @@ def test_a_users_yard_flies_as_the_scenario_of_the_same_shapes():
     handles = add_navigation(
         builder, plant=quadrotor, scene_graph=scene_graph, goal=GOAL
     )
-    simulator = Simulator(builder.Build())
-    apply_simulator_config(default_simulator_config(), simulator)
-    context = simulator.get_mutable_context()
-    handles.set_start(context, START)
-    simulator.AdvanceTo(30.0)
-    times, log = handles.read_log(context)
+    times, log = fly_from_start(builder, handles)
 
     p = log["state"][:, :3]
     assert np.linalg.norm(p[-1] - GOAL) < 0.1
@@ -338,12 +344,7 @@ def test_a_multibody_vehicle_in_the_yard_flies_the_quadrotors_path():
     handles = add_navigation(
         builder, plant=plant, scene_graph=scene_graph, goal=GOAL, body=body.name()
     )
-    simulator = Simulator(builder.Build())
-    apply_simulator_config(default_simulator_config(), simulator)
-    context = simulator.get_mutable_context()
-    handles.set_start(context, START)
-    simulator.AdvanceTo(30.0)
-    times, log = handles.read_log(context)
+    times, log = fly_from_start(builder, handles)
     p = log["state"][:, :3]
     # The vehicle's own collision sphere is never read as an obstacle.
     assert handles.ignored
