@@ -26,7 +26,12 @@ from mfi_drake.world.motion import obstacle_position
 from mfi_drake.world.obstacles import obstacle_triangles
 from mfi_drake.world.shapes import bounding_radius
 
-OUTCOME_WORDS = {"success": "reached", "collision": "collided", "timeout": "failed"}
+OUTCOME_WORDS = {
+    "success": "reached",
+    "collision": "collided",
+    "timeout": "failed",
+    "trapped": "trapped",
+}
 
 
 def write_figure(fig: Figure, path: str, dpi: int = 110) -> None:

@@ -33,6 +33,7 @@ def summary_line(metrics: dict) -> str:
         "success": "SUCCESS",
         "collision": "COLLISION",
         "timeout": "NOT REACHED",
+        "trapped": "TRAPPED (the escape rule ran out of options)",
     }[metrics["outcome"]]
     clearance = metrics["min_clearance"]
     conv = metrics["convergence_time"]
