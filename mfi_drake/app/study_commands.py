@@ -293,7 +293,7 @@ def add_sweep(sub) -> None:
     sweep = add_parser(
         sub,
         "sweep",
-        "Monte Carlo benchmark on random obstacle fields (Dask)",
+        "Monte Carlo benchmark on random obstacle fields or generated worlds (Dask)",
         exit_status=exit_statuses(
             "every flight was flown, whatever its outcome (the rates are the output)",
             "a flight could not be run (rerun the same command to fly it)",
@@ -307,9 +307,10 @@ def add_sweep(sub) -> None:
         "--world",
         choices=WORLDS,
         default=WORLDS[0],
-        help="the fields flown: random obstacle fields, or a class of the "
-        f"generated non-convex worlds, or {NONCONVEX} (every class); --n of "
-        "each class (docs/nonconvex.md)",
+        metavar="KIND",
+        help=f"the fields flown, one of {', '.join(WORLDS)}: random obstacle "
+        "fields, a class of the generated non-convex worlds, or "
+        f"{NONCONVEX} (every class), --n of each (docs/nonconvex.md)",
     )
     sweep.add_argument(
         "--methods",
