@@ -12,6 +12,8 @@ from mfi_drake.studies import records as record_store
 from mfi_drake.studies import sweep
 from mfi_drake.world.nonconvex import KINDS, nonconvex_world
 
+from .conftest import load_benchmark
+
 
 def test_nonconvex_names_n_worlds_of_every_class_and_random_keys_stay_as_they_were():
     config = sweep.SweepConfig(n=3, methods=["mfi-nc"], world=sweep.NONCONVEX)
@@ -80,3 +82,41 @@ def test_options_of_random_fields_are_refused_with_a_world(
     err = capsys.readouterr().err.strip()
     assert named in err
     assert not any(tmp_path.iterdir())
+
+
+def test_the_comparison_page_tabulates_a_world_sweep_by_class(tmp_path):
+    """Hand-made records: each class's world 0 and 1 end as `ends` says;
+    the published table counts them class by class."""
+    publish = load_benchmark("publish")
+    config = sweep.SweepConfig(
+        n=2, seed=4343, methods=["mfi", "mfi-nc"], world=sweep.NONCONVEX
+    )
+    ends = {"mfi": ("timeout", "collision"), "mfi-nc": ("success", "trapped")}
+    records = []
+    for key in config.flight_keys():
+        end = ends[key.method][key.index]
+        records.append(
+            record_store.key_record(key)
+            | {"outcome": end, "path_ratio": 1.25, "convergence_time": 30.0}
+            | {"reference_length": 12.0, "straight_length": 10.0}
+            | {"blocked_fraction": 0.1}
+        )
+    where = tmp_path / "docs" / "results" / publish.NONCONVEX
+    where.mkdir(parents=True)
+    summary = sweep.summarize(config, records)
+    (where / "summary.json").write_text(json.dumps(summary))
+    rows = publish.nonconvex_table(str(tmp_path)).splitlines()
+    six = " / ".join  # a cell: the six classes
+    assert rows[0].startswith(f"| seed 4343, 2 worlds a class | success {six(KINDS)} |")
+    assert rows[2] == (
+        f"| MFI | {six(['0.000'] * 6)} | {six('1' * 6)} | {six('1' * 6)} "
+        f"| {six('0' * 6)} | {six(['–'] * 6)} | – |"
+    )
+    assert rows[3] == (
+        f"| MFI (non-convex) | {six(['0.500'] * 6)} | {six('0' * 6)} | {six('0' * 6)} "
+        f"| {six('1' * 6)} | {six(['1.250'] * 6)} | 30.0 |"
+    )
+    # The sweep's own table: a row a method and class, trapped included.
+    table = sweep.summary_table(summary)
+    assert "| mfi-nc | cave | 2 | 0.50 [0.09, 0.91] | 0.00 [0.00, 0.66] " in table
+    assert "| 0.50 [0.09, 0.91] | 1.250 [1.250, 1.250] |" in table
