@@ -33,7 +33,9 @@ import tomllib
 from collections.abc import Callable
 
 from mfi_drake.files import write_section
+from mfi_drake.flight.methods import appearance
 from mfi_drake.studies.fleet_sweep import fleet_table
+from mfi_drake.world.nonconvex import KINDS
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MANIFEST = os.path.join("docs", "results", "published.toml")
@@ -47,6 +49,8 @@ PAGES = [
 ]
 RESULTS = "docs/results"
 FLEETS = ("fleet_4", "fleet_8", "fleet_16_one", "fleet_8_methods")  # the fleet sweeps
+NONCONVEX = "nonconvex_4343"  # the held-out sweep of the generated worlds
+NOT_REACHED = ("collision", "timeout", "trapped")  # its outcomes counted
 DENSITIES = ("0.05", "0.1", "0.2")
 # Row labels of the methods, as the tables name them.
 LABELS = {
@@ -307,6 +311,36 @@ def camera_table(root: str) -> str:
                     f"({c['clear_line_flights']})",
                 ]
             )
+    return table(header, rows)
+
+
+def nonconvex_table(root: str) -> str:
+    """`sweep --world nonconvex` on a held-out seed: one row a method, each
+    cell the classes in KINDS's order, as the held-out random fields' table
+    has the densities. Before the set is flown, the command that flies it."""
+    if not os.path.exists(os.path.join(root, RESULTS, NONCONVEX, "summary.json")):
+        return f"Not flown yet: `python benchmarks/publish.py --only {NONCONVEX}`."
+    result = summary(root, NONCONVEX)
+    config = result["config"]
+    header = [
+        f"seed {config['seed']}, {config['n']} worlds a class",
+        "success " + joined(KINDS),
+        "collisions (in that order)",
+        "time-outs",
+        "trapped",
+        "median path ratio",
+        "median convergence [s]",
+    ]
+    rows = []
+    for method, stats in result["methods"].items():
+        cells = [stats["by_world"][kind] for kind in KINDS]
+        rows.append(
+            [appearance(method)[0]]
+            + [joined(rate(c) for c in cells)]
+            + [joined(str(count(c, o)) for c in cells) for o in NOT_REACHED]
+            + [joined(num(c["median_path_ratio"]) for c in cells)]
+            + [num(stats["median_convergence_time"], 1)]
+        )
     return table(header, rows)
 
 
@@ -596,6 +630,7 @@ TABLES: dict[str, Callable[[str], str]] = {
     "robustness_state": lambda root: robustness_table(root, "robustness_state_h_miss"),
     "fleet": fleet_tables,
     "readme_field": readme_field_table,
+    "nonconvex": nonconvex_table,
 }
 
 

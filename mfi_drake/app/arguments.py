@@ -225,8 +225,11 @@ def add_random_field(parser: argparse.ArgumentParser, several: bool) -> None:
         metavar="D",
         type=float,
         nargs="+" if several else None,
-        default=[DEFAULT_DENSITY] if several else DEFAULT_DENSITY,
-        help=f"{box}, each ≥ 0; several values sweep them all"
+        # The sweep's: absent is not the default value given, which a
+        # --world other than random refuses (`check_world`).
+        default=None if several else DEFAULT_DENSITY,
+        help=f"{box}, each ≥ 0; several values sweep them all (default: "
+        f"{DEFAULT_DENSITY:g}; random fields only)"
         if several
         else f"{box}, ≥ 0",
     )
@@ -284,11 +287,11 @@ def add_flight_outputs(parser: argparse.ArgumentParser, json_help: str) -> None:
     )
 
 
-def add_field_count(parser: argparse.ArgumentParser, n: int, what: str) -> None:
+def add_field_count(
+    parser: argparse.ArgumentParser, n: int, what: str, per: str = "density"
+) -> None:
     """--n, checked by `check_sweep_numbers`."""
-    parser.add_argument(
-        "--n", type=int, default=n, help=f"{what} fields per density, ≥ 1"
-    )
+    parser.add_argument("--n", type=int, default=n, help=f"{what} per {per}, ≥ 1")
 
 
 def add_workers(parser: argparse.ArgumentParser) -> None:

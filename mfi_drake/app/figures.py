@@ -22,11 +22,17 @@ from mfi_drake.config.scenario import Scenario
 from mfi_drake.files import atomic_path
 from mfi_drake.flight.methods import appearance
 from mfi_drake.flight.result import outcome as flight_outcome
+from mfi_drake.studies.stats import summary_groups
 from mfi_drake.world.motion import obstacle_position
 from mfi_drake.world.obstacles import obstacle_triangles
 from mfi_drake.world.shapes import bounding_radius
 
-OUTCOME_WORDS = {"success": "reached", "collision": "collided", "timeout": "failed"}
+OUTCOME_WORDS = {
+    "success": "reached",
+    "collision": "collided",
+    "timeout": "failed",
+    "trapped": "trapped",
+}
 
 
 def write_figure(fig: Figure, path: str, dpi: int = 110) -> None:
@@ -229,16 +235,21 @@ def write_comparison_figure(scenario: Scenario, flights: list, path: str) -> Non
 
 
 def plot_sweep(summary: dict, path: str) -> None:
-    """Success rate and path ratio against density, one line per method."""
+    """Success rate and path ratio against density (or world class), one
+    line per method."""
     fig = Figure(figsize=(11, 4.2))
     ax_s, ax_r = fig.subplots(1, 2)
-    densities = [float(d) for d in summary["config"]["densities"]]
+    methods = summary["methods"]
+    heading, groups = summary_groups(next(iter(methods.values())))
+    # Density on the axis, or the world classes one a tick.
+    at = {g: float(g) for g in groups} if "density" in heading else {}
+    at = at or {g: float(i) for i, g in enumerate(groups)}
+    ticks = list(at.values())
     # Methods side by side at each density, so that their bars do not hide
     # each other.
-    dodge = 0.015 * (max(densities) - min(densities) or max(densities) or 1.0)
-    methods = summary["methods"]
+    dodge = 0.015 * (max(ticks) - min(ticks) or max(ticks) or 1.0)
     for i, (method, pooled) in enumerate(methods.items()):
-        rows = [(float(d), s) for d, s in pooled["by_density"].items() if s["n"]]
+        rows = [(at[g], s) for g, s in summary_groups(pooled)[1].items() if s["n"]]
         if not rows:
             continue
         shift = dodge * (i - (len(methods) - 1) / 2)
@@ -283,16 +294,21 @@ def plot_sweep(summary: dict, path: str) -> None:
     ax_s.set_ylabel("success rate (95% Wilson CI)")
     ax_r.set_ylabel("path length / reference shortest path")
     for ax in (ax_s, ax_r):
-        ax.set_xlabel("obstacle density [obstacles / m³]")
-        ax.set_xticks(densities)
-        ax.set_xlim(min(densities) - 10 * dodge, max(densities) + 10 * dodge)
+        if "density" in heading:
+            ax.set_xlabel("obstacle density [obstacles / m³]")
+            ax.set_xticks(ticks)
+        else:
+            ax.set_xticks(ticks, list(at), rotation=20)
+        ax.set_xlim(min(ticks) - 10 * dodge, max(ticks) + 10 * dodge)
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:  # no ratios when nothing succeeded
             ax.legend(fontsize=8)
+    what = "random fields" if "density" in heading else "generated worlds"
+    per = "density" if "density" in heading else "class"
     fig.suptitle(
-        f"{summary['flights']} flights on random fields "
+        f"{summary['flights']} flights on {what} "
         f"(seed {summary['config']['seed']}, "
-        f"{summary['config']['n']} fields per density)"
+        f"{summary['config']['n']} fields per {per})"
     )
     fig.tight_layout()
     write_figure(fig, path)

@@ -33,6 +33,7 @@ def summary_line(metrics: dict) -> str:
         "success": "SUCCESS",
         "collision": "COLLISION",
         "timeout": "NOT REACHED",
+        "trapped": "TRAPPED (the escape rule ran out of options)",
     }[metrics["outcome"]]
     clearance = metrics["min_clearance"]
     conv = metrics["convergence_time"]
@@ -207,8 +208,8 @@ def add_run(sub) -> None:
         "fly a scenario and write its log and figure",
         exit_statuses(
             "the flight succeeded: it reached the goal without a collision",
-            "the flight collided or timed out (the log and figure are written "
-            f"all the same), or {USER_FIELD_FAILED}",
+            "the flight collided, timed out or was trapped (the log and figure "
+            f"are written all the same), or {USER_FIELD_FAILED}",
         ),
     )
     run.add_argument("scenario", help="scenario YAML file")
@@ -240,8 +241,8 @@ def add_compare(sub) -> None:
         "fly a scenario with several methods",
         exit_statuses(
             "every method's flight succeeded",
-            "a method's flight collided or timed out (every method is flown "
-            f"and written all the same), or {USER_FIELD_FAILED}",
+            "a method's flight collided, timed out or was trapped (every method "
+            f"is flown and written all the same), or {USER_FIELD_FAILED}",
         ),
     )
     comp.add_argument("scenario", help="scenario YAML file")

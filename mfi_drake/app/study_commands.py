@@ -33,6 +33,30 @@ from mfi_drake.flight.methods import DEFAULT_METHODS
 from mfi_drake.world.validation import validate_scenario
 
 
+def check_world(args) -> None:
+    """--world: a generated world has its own start, goal and obstacles, so
+    the options that shape random fields are refused with it; random fields
+    get the default density where --density is absent."""
+    from mfi_drake.studies.records import RANDOM
+    from mfi_drake.world.generator import DEFAULT_DENSITY
+
+    if args.world == RANDOM:
+        args.density = args.density or [DEFAULT_DENSITY]
+        return
+    shaping = {
+        "--density": " ".join(f"{d:g}" for d in args.density or []),
+        "--vehicles": args.vehicles if args.vehicles > 1 else "",
+        "--moving": args.moving or "",
+        "--goal-clearance": "" if args.goal_clearance is None else args.goal_clearance,
+    }
+    for flag, given in shaping.items():
+        if given != "":
+            raise UsageError(
+                f"{flag} = {given}: shapes the random fields, not --world {args.world}"
+            )
+    args.density = []
+
+
 def sweep_config(args, **more):
     """(config, tasks) of the random fields the arguments name (seed,
     sensor, vehicles, motion, goal clearance; checked here): a fleet's
@@ -152,12 +176,14 @@ def cmd_sweep(args) -> int:
 
     methods = parse_methods(args.methods) if args.methods else list(DEFAULT_METHODS)
     check_sweep_numbers(args)
+    check_world(args)
     config, tasks = sweep_config(
         args,
         n=args.n,
         methods=methods,
         densities=list(dict.fromkeys(args.density)),
         out=args.out,
+        world=args.world,
     )
     fleet = tasks is FLEET
     if fleet and args.faults is not None:
@@ -180,7 +206,7 @@ def cmd_sweep(args) -> int:
     modify = partial(layered, overrides=texts, faults=faults)
     # The first field with every layer, checked before a cluster starts or
     # anything is written (run_sweep checks it too, for the API's callers).
-    first = field_to_fly(config, tasks, modify, config.densities[0], 0)
+    first = field_to_fly(config, tasks, modify, config.flight_keys()[0])
     validate_scenario(first, layered_name(first.name, texts))
     check_one_integrator(first, methods)
     try:
@@ -267,14 +293,25 @@ def add_sweep(sub) -> None:
     sweep = add_parser(
         sub,
         "sweep",
-        "Monte Carlo benchmark on random obstacle fields (Dask)",
+        "Monte Carlo benchmark on random obstacle fields or generated worlds (Dask)",
         exit_status=exit_statuses(
             "every flight was flown, whatever its outcome (the rates are the output)",
             "a flight could not be run (rerun the same command to fly it)",
         ),
     )
+    from mfi_drake.studies.sweep import NONCONVEX, WORLDS
+
     add_overrides(sweep)
-    add_field_count(sweep, 30, "random")
+    add_field_count(sweep, 30, "fields", "density or --world class")
+    sweep.add_argument(
+        "--world",
+        choices=WORLDS,
+        default=WORLDS[0],
+        metavar="KIND",
+        help=f"the fields flown, one of {', '.join(WORLDS)}: random obstacle "
+        "fields, a class of the generated non-convex worlds, or "
+        f"{NONCONVEX} (every class), --n of each (docs/nonconvex.md)",
+    )
     sweep.add_argument(
         "--methods",
         metavar="M,M,...",
@@ -411,7 +448,7 @@ def add_tune(sub) -> None:
     tune.add_argument(
         "--seed", metavar="S", type=int, default=100, help="training fields' seed, ≥ 0"
     )
-    add_field_count(tune, 10, "random training")
+    add_field_count(tune, 10, "random training fields")
     tune.add_argument(
         "--density",
         metavar="D",

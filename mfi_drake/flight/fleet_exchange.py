@@ -21,7 +21,7 @@ from mfi_drake.flight.diagram import build_diagram, vehicle_scenarios
 from mfi_drake.flight.methods import Method
 from mfi_drake.flight.monitors import RESTING, centre_gap, settled_monitor, settles
 from mfi_drake.flight.result import Flight, fleet_flight
-from mfi_drake.flight.simulator import logged, start_simulator
+from mfi_drake.flight.simulator import ended_trapped, logged, start_simulator
 from mfi_drake.maths.layout import POSITION, VELOCITY
 from mfi_drake.systems.exchange import message
 
@@ -54,6 +54,7 @@ class FleetGroup:
             for f, c in zip(self.fleet, self.contexts, strict=True)
             if quiet
         ]
+        self.trapped = [False] * len(self.fleet)  # `ended_trapped`, each
         self.cpu_time = 0.0
 
     def states(self) -> np.ndarray:
@@ -79,11 +80,11 @@ class FleetGroup:
             self.indices, self.ports, self.contexts, strict=True
         ):
             port.FixValue(context, message(t, positions, velocities, k))
-        for simulator in self.simulators:
+        for i, simulator in enumerate(self.simulators):
             if until is None:
                 simulator.Initialize()
             else:
-                simulator.AdvanceTo(until)
+                self.trapped[i] = ended_trapped(simulator.AdvanceTo(until))
         ended = until is not None and any(c.get_time() < until for c in self.contexts)
         # A list, not a generator: every monitor must see every exchange.
         resting = [m(c).severity() == RESTING for m, c in self.settled]
@@ -94,10 +95,13 @@ class FleetGroup:
     def flights(self, wall_time: float) -> list[Flight]:
         """Its vehicles' Flights (metrics left to the caller), each with the
         group's CPU time in its steps."""
-        return [
-            logged(flight, simulator, wall_time, self.cpu_time)
-            for flight, simulator in zip(self.fleet, self.simulators, strict=True)
-        ]
+        flights = []
+        for flight, simulator, trapped in zip(
+            self.fleet, self.simulators, self.trapped, strict=True
+        ):
+            flights.append(logged(flight, simulator, wall_time, self.cpu_time))
+            flights[-1].trapped = trapped
+        return flights
 
 
 def serve_group(fd: int) -> None:
@@ -188,6 +192,8 @@ def fly_fleet(
     process's. `stop_at_contact`: the fleet ends at the exchange after a
     vehicle's sphere sensor reads contact with the scene, or at an exchange
     where two vehicles' centres are closer than their two collision radii.
+    A vehicle the escape rule ends (`ended_trapped`) ends the fleet at that
+    exchange.
     `until_settled`: it ends once every vehicle has been at rest at its goal
     (`settled_monitor`, checked at the exchanges) for SETTLE_HOLD, where
     nothing but the vehicles moves."""

@@ -29,6 +29,8 @@ class Flight:
     derivative_evaluations: int = 0  # its time-derivative evaluations
     frames_rendered: int | None = None  # depth-camera frames (None: no camera)
     metrics: dict = field(default_factory=dict)
+    # Ended by the escape rule, out of options (`simulator.ended_trapped`).
+    trapped: bool = False
     # The scenario's other_vehicles, flown at once: one Flight each (wall
     # and CPU times are the whole fleet's).
     others: list["Flight"] = field(default_factory=list)
@@ -38,20 +40,25 @@ class Flight:
         return self.log["state"][:, POSITION]
 
 
-OUTCOMES = ("success", "collision", "timeout")
+OUTCOMES = ("success", "collision", "timeout", "trapped")
 
 
 def outcome(metrics: dict) -> str:
     """A flight's result: "collision" if its clearance went below zero at any
     logged step (reached or not), else "success" if it ended within the goal
-    tolerance, else "timeout" (stuck, or too slow for the duration). Among
-    several vehicles: "collision" if any collided or two touched
-    (min_separation ≤ 0), else "success" if every one reached its goal."""
+    tolerance, else "trapped" if the escape rule ended it, out of options
+    (metrics "trapped", only a flight of "mfi-nc" can), else "timeout"
+    (stuck, or too slow for the duration). Among several vehicles:
+    "collision" if any collided or two touched (min_separation ≤ 0), else
+    "success" if every one reached its goal, else "trapped" if one was
+    (its trap ended the fleet's flight)."""
     vehicles = metrics.get("vehicles", [metrics])
     touched = metrics.get("min_separation", np.inf) <= 0.0
     if touched or any(v["collided"] for v in vehicles):
         return "collision"
-    return "success" if all(v["reached"] for v in vehicles) else "timeout"
+    if all(v["reached"] for v in vehicles):
+        return "success"
+    return "trapped" if any(v.get("trapped") for v in vehicles) else "timeout"
 
 
 VEHICLE_KEYS = ("success", "reached", "collided", "min_clearance", "path_length")
@@ -61,13 +68,16 @@ VEHICLE_KEYS += ("final_error", "convergence_time")
 
 def several_vehicles(flight: Flight, metrics: dict) -> dict:
     """What a flight of several vehicles adds to the first one's `metrics`:
-    `vehicles` (each one's VEHICLE_KEYS, the first included),
+    `vehicles` (each one's VEHICLE_KEYS, the first included, and "trapped"
+    where it is),
     `min_separation` (`least_separation`) and `success`, true only when
     every vehicle succeeded and min_separation > 0."""
     everyone = [metrics] + [other.metrics for other in flight.others]
     separation = least_separation([flight, *flight.others])
     return {
-        "vehicles": [{k: m[k] for k in VEHICLE_KEYS} for m in everyone],
+        "vehicles": [
+            {k: m[k] for k in (*VEHICLE_KEYS, "trapped") if k in m} for m in everyone
+        ],
         "min_separation": separation,
         "success": all(m["success"] for m in everyone) and separation > 0.0,
     }
@@ -143,6 +153,8 @@ def flight_metrics(flight: Flight) -> dict:
         "steps": int(len(times)),
         "saturated_fraction": float(np.mean(flight.log["saturation"][:, 0] > 0)),
     }
+    if flight.trapped:  # only then: the metrics of every other flight unchanged
+        metrics["trapped"] = True
     if flight.others:
         metrics.update(several_vehicles(flight, metrics))
     metrics["outcome"] = outcome(metrics)

@@ -1,11 +1,13 @@
 """One vehicle's diagram flown on one Drake Simulator: `simulator_at_start`
 (the scenario's SimulatorConfig, the vehicle at its start), `start_simulator`
-(with the monitors of `fly`), `run_timed`, `logged` (the Flight of a flown
-diagram) and `fly`, all four in turn."""
+(with the monitors of `fly`), `advance_timed` (`run_timed` without the
+status), `logged` (the Flight of a flown diagram) and `fly`, all four in
+turn."""
 
 import time
+from typing import NamedTuple
 
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import Simulator, SimulatorStatus
 
 from mfi_drake.config.scenario import Cameras, Scenario
 from mfi_drake.flight.builder import apply_simulator_config, place_quadrotor
@@ -17,6 +19,7 @@ from mfi_drake.flight.monitors import (
     settles,
 )
 from mfi_drake.flight.result import Flight, flight_metrics
+from mfi_drake.systems.escape import TRAPPED_MESSAGE
 
 
 def simulator_at_start(diagram, plant, scenario: Scenario) -> Simulator:
@@ -30,12 +33,32 @@ def simulator_at_start(diagram, plant, scenario: Scenario) -> Simulator:
     return simulator
 
 
-def run_timed(simulator: Simulator, duration: float) -> tuple[float, float]:
-    """Initialize + AdvanceTo(duration); (wall time, process CPU time) [s]."""
+class TimedRun(NamedTuple):
+    wall_time: float  # [s]
+    cpu_time: float  # process CPU time [s]
+    status: SimulatorStatus  # AdvanceTo's: why the flight ended
+
+
+def advance_timed(simulator: Simulator, duration: float) -> TimedRun:
+    """Initialize + AdvanceTo(duration), timed."""
     start, start_cpu = time.perf_counter(), time.process_time()
     simulator.Initialize()
-    simulator.AdvanceTo(duration)
-    return time.perf_counter() - start, time.process_time() - start_cpu
+    status = simulator.AdvanceTo(duration)
+    return TimedRun(
+        time.perf_counter() - start, time.process_time() - start_cpu, status
+    )
+
+
+def run_timed(simulator: Simulator, duration: float) -> tuple[float, float]:
+    """(wall time, process CPU time) [s] of `advance_timed`."""
+    return advance_timed(simulator, duration)[:2]
+
+
+def ended_trapped(status: SimulatorStatus) -> bool:
+    """Whether the escape rule ended the flight: it ran out of options
+    (`EscapeNavigator`), the goal cannot be reached."""
+    reason = SimulatorStatus.ReturnReason.kReachedTerminationCondition
+    return status.reason() == reason and status.message() == TRAPPED_MESSAGE
 
 
 def start_simulator(
@@ -61,10 +84,12 @@ def fly(
     """Simulates an already built diagram from the scenario's start at rest.
     `until_settled`: end the flight once the vehicle rests at its goal
     (`settled_monitor`), where the scenario `settles`. `stop_at_contact`:
-    end it when a sphere sensor reads contact (`contact_monitor`)."""
+    end it when a sphere sensor reads contact (`contact_monitor`). A
+    flight the escape rule ended is `trapped` (`ended_trapped`)."""
     simulator = start_simulator(flight, until_settled, stop_at_contact)
-    wall_time, cpu_time = run_timed(simulator, flight.scenario.duration)
-    result = logged(flight, simulator, wall_time, cpu_time)
+    run = advance_timed(simulator, flight.scenario.duration)
+    result = logged(flight, simulator, run.wall_time, run.cpu_time)
+    result.trapped = ended_trapped(run.status)
     result.metrics = flight_metrics(result)
     return result
 

@@ -90,6 +90,7 @@ def _outcome(m: dict) -> str:
         "success": f"reached the goal (path {m['path_length']:.2f} m)",
         "collision": f"collided (min clearance {m['min_clearance']:.3f} m)",
         "timeout": f"stopped {m['final_error']:.2f} m short",
+        "trapped": f"trapped {m['final_error']:.2f} m short",
     }[outcome(m)]
 
 

@@ -9,21 +9,25 @@ from typing import NamedTuple
 
 from mfi_drake.flight.result import OUTCOMES as FLIGHT_OUTCOMES
 
+RANDOM = "random"  # the world of the random fields (`generator.random_field`)
+
 
 class FlightKey(NamedTuple):
     """What identifies a flight in results.jsonl."""
 
     variant: str
     sensor: str
-    density: float
+    density: float | None  # None: a generated world, where density has no sense
     seed: int
     index: int
     method: str
+    # RANDOM, or a class of `nonconvex.KINDS` (world `index` of that class).
+    world: str = RANDOM
 
     @property
-    def field(self) -> tuple:
-        """The field's part of the key (all but the method)."""
-        return self[:5]
+    def field(self) -> "FlightKey":
+        """The field's part of the key (the method blanked)."""
+        return self._replace(method="")
 
 
 KEY_FIELDS = FlightKey._fields
@@ -33,7 +37,17 @@ OUTCOMES = (*FLIGHT_OUTCOMES, "error")  # error: the simulation raised
 
 # --- results file ---------------------------------------------------------------
 def record_key(record: dict) -> FlightKey:
-    return FlightKey(*(record[k] for k in KEY_FIELDS))
+    """A record's key; a record without a world is a random field's."""
+    return FlightKey(*(record[k] for k in KEY_FIELDS[:-1]), record.get("world", RANDOM))
+
+
+def key_record(key: FlightKey) -> dict:
+    """A key's fields in its record: a random field's record leaves its
+    world out, as records did before the generated worlds."""
+    fields = key._asdict()
+    if key.world == RANDOM:
+        del fields["world"]
+    return fields
 
 
 def read_results(path: str) -> list[dict]:

@@ -1,6 +1,6 @@
 """A sweep's statistics: rates with 95 % Wilson intervals, the median path
 ratio with a distribution-free interval (`group_stats`), and the Markdown
-table of a summary (`summary_table`)."""
+table of a summary (`summary_table`), by density or by world class."""
 
 import math
 
@@ -86,16 +86,36 @@ def _num(value, digits: int = 2) -> str:
     return "–" if value is None else f"{value:.{digits}f}"
 
 
+def summary_groups(pooled: dict) -> tuple[str, dict]:
+    """(the column's heading, stats by group) of a method's summary: by
+    density for the random fields, by class for generated worlds."""
+    if "by_world" in pooled:
+        return "world", pooled["by_world"]
+    return "density [1/m³]", pooled["by_density"]
+
+
 def summary_table(summary: dict) -> str:
-    """A Markdown table: one row per method and density."""
-    lines = [
-        "| method | density [1/m³] | flights | success [95% CI] | collision [95% CI] "
-        "| timeout [95% CI] | median path ratio [95% CI] | p90 path ratio "
-        "| median path ratio, clear line (fields) | median convergence time [s] |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+    """A Markdown table: one row per method and density (or world class).
+    Trapped flights (`flight.result.outcome`) have a column in a table of
+    generated worlds, and in any other where some flight was trapped."""
+    rows = [
+        (method, *summary_groups(pooled))
+        for method, pooled in summary["methods"].items()
     ]
-    for method, pooled in summary["methods"].items():
-        for density, s in pooled["by_density"].items():
+    heading = rows[0][1] if rows else "density [1/m³]"
+    trapped = heading == "world" or any(
+        s.get("trapped_rate") for _, _, groups in rows for s in groups.values()
+    )
+    outcomes = ["success", "collision", "timeout"] + ["trapped"] * trapped
+    lines = [
+        f"| method | {heading} | flights | "
+        + " | ".join(f"{o} [95% CI]" for o in outcomes)
+        + " | median path ratio [95% CI] | p90 path ratio "
+        "| median path ratio, clear line (fields) | median convergence time [s] |",
+        "|---" * (7 + len(outcomes)) + "|",
+    ]
+    for method, _, groups in rows:
+        for group, s in groups.items():
             ci = s["median_path_ratio_ci95"]
             median = _num(s["median_path_ratio"], 3)
             if ci:
@@ -104,9 +124,9 @@ def summary_table(summary: dict) -> str:
                 f" ({s['error_rate'] * s['n']:.0f} errors)" if s["error_rate"] else ""
             )
             lines.append(
-                f"| {method} | {density} | {s['n']}{errors} "
-                f"| {rate_cell(s, 'success')} | {rate_cell(s, 'collision')} "
-                f"| {rate_cell(s, 'timeout')} | {median} "
+                f"| {method} | {group} | {s['n']}{errors} | "
+                + " | ".join(rate_cell(s, o) for o in outcomes)
+                + f" | {median} "
                 f"| {_num(s['p90_path_ratio'], 3)} "
                 f"| {_num(s.get('median_path_ratio_clear_line'), 3)} "
                 f"({s.get('clear_line_flights', 0)}) "

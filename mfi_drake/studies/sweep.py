@@ -26,7 +26,8 @@ those flown).
 
 Outcomes: success (reached and no collision), collision (clearance < 0 at
 any logged step, reached or not), timeout (neither: stuck or too slow within
-the scenario's duration), error (the simulation raised; message recorded).
+the scenario's duration), trapped (neither, ended by mfi-nc's escape rule
+out of options), error (the simulation raised; message recorded).
 Path ratio = flown path length / reference path length, over successful
 flights only. Rates carry 95 % Wilson intervals; the median path ratio a
 95 % distribution-free interval from order statistics.
@@ -34,6 +35,14 @@ flights only. Rates carry 95 % Wilson intervals; the median path ratio a
 With `moving` > 0 a share of each field's obstacles circles at
 `obstacle_speed` (`generator.set_in_motion`); the records are keyed by a
 variant naming both, and each counts its moving obstacles.
+
+With `world` other than "random" the fields are the generated non-convex
+worlds (`world.nonconvex`, docs/nonconvex.md) instead: worlds 0..n−1 of
+each class (`world_kinds`), where density has no sense (the records'
+density is None, their `world` the class; a random field's record has no
+`world`), summed up by class rather than density. A trapped flight (the
+escape rule ran out of options: `flight.result.outcome`) is an outcome of
+its own.
 
 The task payload is the scenario itself, so a sweep can fly modified
 scenarios: `run_sweep(..., modify=f, variant="name")` applies f to every
@@ -63,17 +72,27 @@ from mfi_drake.flight.result import outcome
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.studies.cluster import Progress, Task, run_tasks
 from mfi_drake.studies.records import (
+    RANDOM,
     FlightKey,
     append_record,
+    key_record,
     read_results,
     record_key,
 )
 from mfi_drake.studies.stats import group_stats, summary_table
-from mfi_drake.world import generator
+from mfi_drake.world import generator, nonconvex
 from mfi_drake.world.reference_path import Clearance, reference_path
 from mfi_drake.world.validation import validate_scenario
 
 SENSORS = {"sphere": SphereSensor, "depth": DepthCamera}
+NONCONVEX = "nonconvex"  # every class of nonconvex.KINDS
+WORLDS = (RANDOM, *nonconvex.KINDS, NONCONVEX)  # what a sweep can fly
+
+
+def world_kinds(world: str) -> tuple[str, ...]:
+    """The classes of generated worlds `world` names (a KINDS, or NONCONVEX:
+    all of them)."""
+    return nonconvex.KINDS if world == NONCONVEX else (world,)
 
 
 @dataclass
@@ -91,12 +110,22 @@ class SweepConfig:
     obstacle_speed: float = 0.0  # m/s, of those that move
     # m: add an obstacle whose surface is this far from the goal (None: none)
     goal_clearance: float | None = None
+    # One of WORLDS: RANDOM (the random fields, at `densities`) or the
+    # generated worlds of `world_kinds` (n of each class; `densities` unused).
+    world: str = RANDOM
+
+    def groups(self) -> list[tuple[float | None, str]]:
+        """(density, world) of each group of n fields: the densities of the
+        random fields, or the classes of the generated worlds."""
+        if self.world == RANDOM:
+            return [(density, RANDOM) for density in self.densities]
+        return [(None, kind) for kind in world_kinds(self.world)]
 
     def flight_keys(self) -> list[FlightKey]:
         return [
-            FlightKey(self.variant, self.sensor, density, self.seed, index, method)
-            for density in self.densities
-            for index in range(self.n)
+            FlightKey(self.variant, self.sensor, density, self.seed, i, method, world)
+            for density, world in self.groups()
+            for i in range(self.n)
             for method in self.methods
         ]
 
@@ -160,21 +189,35 @@ def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
 
 
 def summarize(config: SweepConfig, records: list[dict]) -> dict:
-    """summary.json: per method, all densities pooled and by density."""
+    """summary.json: per method, all fields pooled and by density
+    ("by_density") or, for generated worlds, by class ("by_world")."""
     wanted = set(config.flight_keys())
     records = [r for r in records if record_key(r) in wanted]
+    by = "by_density" if config.world == RANDOM else "by_world"
     methods = {}
     for method in config.methods:
-        mine = [r for r in records if r["method"] == method]
-        by_density = {
-            f"{d:g}": group_stats([r for r in mine if r["density"] == d])
-            for d in config.densities
+        grouped: dict[tuple, list[dict]] = {}
+        for r in records:
+            key = record_key(r)
+            if key.method == method:
+                grouped.setdefault((key.density, key.world), []).append(r)
+        mine = [r for group in grouped.values() for r in group]
+        groups = {
+            world if density is None else f"{density:g}": group_stats(
+                grouped.get((density, world), [])
+            )
+            for density, world in config.groups()
         }
-        methods[method] = group_stats(mine) | {"by_density": by_density}
-    return {
-        "config": dataclasses.asdict(config),
+        methods[method] = group_stats(mine) | {by: groups}
+    where = {
         "workspace": dataclasses.asdict(generator.DEFAULT_WORKSPACE),
         "duration": generator.DEFAULT_DURATION,
+    }
+    if config.world != RANDOM:
+        where = {"duration": nonconvex.DURATION}
+    return {
+        "config": dataclasses.asdict(config),
+        **where,
         "flights": len(records),
         "methods": methods,
     }
@@ -214,6 +257,13 @@ def make_field(config: SweepConfig, density: float, index: int) -> Scenario:
             scenario, config.seed, index, config.moving, config.obstacle_speed
         )
     return scenario
+
+
+def field_words(key: FlightKey) -> str:
+    """ "density 0.1" or "world cup": the field's group in words."""
+    if key.world == RANDOM:
+        return f"density {key.density:g}"
+    return f"world {key.world}"
 
 
 class Tasks(NamedTuple):
@@ -269,7 +319,7 @@ def run_sweep(
     for key in todo:
         field_key = key.field
         if field_key not in fields:
-            scenario = field_to_fly(config, tasks, modify, key.density, key.index)
+            scenario = field_to_fly(config, tasks, modify, key)
             if not fields:
                 validate_scenario(scenario, scenario.name)
                 check_one_integrator(scenario, config.methods)
@@ -292,7 +342,7 @@ def run_sweep(
     with open(results_path, "a") as f:
 
         def on_result(key: FlightKey, result: dict) -> None:
-            record = key._asdict() | result
+            record = key_record(key) | result
             append_record(f, record)
             records.append(record)
             if record["outcome"] != "success":
@@ -302,8 +352,8 @@ def run_sweep(
                     path,
                     header=(
                         f"# {record['outcome']} of {key.method} in the sweep "
-                        f"(seed {key.seed}, field {key.index}, density "
-                        f"{key.density:g}, {key.sensor} sensor"
+                        f"(seed {key.seed}, field {key.index}, {field_words(key)}"
+                        f", {key.sensor} sensor"
                         f"{', variant ' + key.variant if key.variant else ''}).\n"
                         f"# Replay: mfi-drake run {os.path.basename(path)} "
                         f"--method {key.method}\n"
@@ -324,13 +374,19 @@ def field_to_fly(
     config: SweepConfig,
     tasks: Tasks,
     modify: Callable[[Scenario], Scenario] | None,
-    density: float,
-    index: int,
+    key: FlightKey,
 ) -> Scenario:
-    """Field `index` at `density` as the sweep flies it: made by `tasks`,
-    then `modify` layered on it (self-contained again: its overrides may
-    name mesh files)."""
-    scenario = tasks.make_field(config, density, index)
+    """The field of `key` as the sweep flies it: a random field made by
+    `tasks` (at key.density) or the generated world of key.world, then
+    `modify` layered on it (self-contained again: its overrides may name
+    mesh files)."""
+    if key.world == RANDOM:
+        scenario = tasks.make_field(config, key.density, key.index)
+    else:
+        sensor = SENSORS[config.sensor]()
+        scenario = nonconvex.nonconvex_world(
+            key.world, config.seed, key.index, sensor=sensor
+        )
     if modify is None:
         return scenario
     return generator.self_contained(modify(scenario))
