@@ -14,6 +14,10 @@ error-controlled integrator, one logger: every vehicle sees the others
 where they are, with no exchange. The other design, a diagram and
 Simulator a vehicle exchanging states at `exchange_hz`, is
 `fleet_exchange.fly_fleet`; `one_integrator.fly_one_integrator` flies this one.
+
+A lone vehicle with `engine: compiled` is this diagram with N = 1: the
+compiled engine (`flies_compiled`), the same chain as the card's diagram of
+LeafSystems (`engine: systems`, `flight.diagram`) in one system.
 """
 
 from pydrake.geometry import SceneGraph
@@ -24,6 +28,7 @@ from pydrake.systems.primitives import (
     Multiplexer,
 )
 
+from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import make_plant, vehicle_scenarios
@@ -42,12 +47,19 @@ from mfi_drake.world.motion import obstacles_move
 from mfi_drake.world.obstacles import register_obstacles
 
 
+def flies_compiled(scenario: Scenario) -> bool:
+    """Whether `scenario` flies on the compiled engine: `engine: compiled`,
+    or a fleet on one integrator (compiled whatever its engine)."""
+    fleet_on_one = bool(scenario.other_vehicles) and scenario.fleet_integration == "one"
+    return scenario.engine == "compiled" or fleet_on_one
+
+
 def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
-    """Why `scenario` cannot be flown by `method` on one integrator (a
+    """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
     and eq 21 selector, with the smooth goal turn (eq 16–18's rotations are
-    not compiled, `maths.compiled`), the sphere sensor, the relative
-    velocity, no moving obstacle."""
+    not compiled, `maths.compiled`), the sphere sensor, no moving obstacle,
+    no faults, no point-cloud map; a fleet with the relative velocity."""
     method = resolve_method(method)
     vehicle = VEHICLES[scenario.vehicle]
     navigator = method.navigator(scenario, vehicle)
@@ -59,29 +71,36 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         and selector.mass is not None
         and selector.fixed_mode is None
     ):
-        return f"method {method.name}: one integrator flies MFI's field only"
+        return f"method {method.name}: the compiled chain flies MFI's field only"
     if not navigator.params.smooth_goal_turn:
         return f"{method.parameters}.smooth_goal_turn = false: not compiled"
     if not isinstance(scenario.sensor, SphereSensor):
-        return "sensor: one integrator flies the sphere sensor only"
+        return "sensor: the compiled chain flies the sphere sensor only"
     if obstacles_move(scenario):
-        return "obstacles: one integrator flies no moving obstacle"
-    if not scenario.relative_velocity.enabled:
+        return "obstacles: the compiled chain flies no moving obstacle"
+    if scenario.faults != Faults():
+        return "faults: the compiled chain flies none"
+    if scenario.map_points:
+        return "world: the compiled chain flies no point-cloud map"
+    if scenario.other_vehicles and not scenario.relative_velocity.enabled:
         return "relative_velocity.enabled = false: one integrator flies with it"
     return None
 
 
 def check_one_integrator(scenario: Scenario, methods: list) -> None:
-    """Raises ScenarioError where `scenario` asks for one integrator and a
-    method of `methods` cannot be flown so (`unsupported`)."""
-    if not scenario.other_vehicles or scenario.fleet_integration != "one":
+    """Raises ScenarioError where `scenario` flies on the compiled engine
+    (`flies_compiled`: a fleet on one integrator, or `engine: compiled`)
+    and a method of `methods` cannot be flown so (`unsupported`)."""
+    if not flies_compiled(scenario):
         return
+    asked, other = "engine = 'compiled'", "engine: systems"
+    if scenario.engine != "compiled":
+        asked, other = "fleet_integration = 'one'", "fleet_integration: separate"
     for method in methods:
         reason = unsupported(scenario, method)
         if reason is not None:
             raise ScenarioError(
-                f"{scenario.name}: fleet_integration = 'one': {reason} "
-                "(fleet_integration: separate flies it)"
+                f"{scenario.name}: {asked}: {reason} ({other} flies it)"
             )
 
 
@@ -149,4 +168,5 @@ class OneIntegratorFleet:
         self.logger.set_name("logger")
         self.chain, self.states = chain, states
         self.diagram = builder.Build()
-        self.diagram.set_name(f"mfi_drake[{scenario.name}, {self.method}, fleet]")
+        kind = "fleet" if n > 1 else "compiled"
+        self.diagram.set_name(f"mfi_drake[{scenario.name}, {self.method}, {kind}]")

@@ -8,7 +8,7 @@ functions the single-vehicle systems call, in the order they call them
 
 import numpy as np
 
-from mfi_drake.maths.fields import goal_terms, next_mode
+from mfi_drake.maths.fields import goal_terms, next_mode, superposed
 from mfi_drake.maths.layout import POSITION, VELOCITY, slices
 from mfi_drake.maths.motion import relative_field, vehicle_readings
 from mfi_drake.maths.quadcopter import attitude_command, mix
@@ -60,26 +60,34 @@ def fleet_chain(
     21's `modes[k]` toward `goals[k]`. `params`, `vehicle`: MFI's
     parameters and the vehicle (`compiled.record` for the compiled form);
     K_P, K_D: eq 25's gains; D_inv: eq 8 inverted; keep_right, own_pace,
-    blend_speed: the relative field's (`relative_field`)."""
+    blend_speed: the relative field's (`relative_field`). A lone vehicle
+    (N = 1) reads the static scene with its own velocity, as the
+    single-vehicle navigator does (`superposed`; `flight.chain.navigator_of`
+    takes the relative field only where something else moves)."""
     centres, velocities = states[:, POSITION], states[:, VELOCITY]
     for k in range(len(states)):
         x, mode, goal = states[k], modes[k], goals[k]
         p, v = x[POSITION], x[VELOCITY]
-        obstacle, u, flags = vehicle_readings(
-            p, scene[k], centres, velocities, radius, reach, k
-        )
-        F_o, terms = relative_field(
-            field,
-            x,
-            obstacle,
-            u,
-            keep_right * flags,
-            goal,
-            radius,
-            params,
-            own_pace,
-            blend_speed,
-        )
+        if len(states) == 1:  # alone: the static scene's field (`superposed`)
+            obstacle = scene[k]
+            A, B = superposed(field, v, obstacle, goal - p, radius, params)
+            F_o, terms = A + B, np.concatenate((A, B))
+        else:
+            obstacle, u, flags = vehicle_readings(
+                p, scene[k], centres, velocities, radius, reach, k
+            )
+            F_o, terms = relative_field(
+                field,
+                x,
+                obstacle,
+                u,
+                keep_right * flags,
+                goal,
+                radius,
+                params,
+                own_pace,
+                blend_speed,
+            )
         F_gc, F_v, F_pd = goal_terms(mode, p, v, goal, params, F_o, vehicle.mass)
         F_n = F_o + F_gc + F_v + F_pd
         thrust_torque, setpoint = attitude_command(x, F_n, vehicle, params, K_P, K_D)
