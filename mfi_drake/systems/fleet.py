@@ -8,10 +8,15 @@
 (`maths.compiled`), for every vehicle in one call: the per-call cost of a
 Python system is paid once for the fleet, not once per vehicle and system.
 Eq 21's modes are its discrete state, one a vehicle, updated at the start
-of every integrator step (`fleet_modes`), where the single-vehicle selector
-locates each switch with witness functions (a witness a vehicle would cost
-a Python call a vehicle and step).
+of every integrator step (`fleet_modes`). A lone vehicle (the compiled
+engine, `engine: compiled`) also has the single-vehicle selector's witness
+functions (`navigation.mode_witnesses`), so that the integrator locates
+each switch as the card's diagram does; a fleet has none (a witness a
+vehicle would cost a Python call a vehicle and step), its switches fall at
+the start of the step after the crossing.
 """
+
+import copy
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
@@ -23,6 +28,7 @@ from mfi_drake.maths.fields import MODE_PD
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
 from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
 from mfi_drake.systems.last_result import LastResult
+from mfi_drake.systems.navigation import mode_witnesses
 
 
 class FleetChain(LeafSystem):
@@ -110,6 +116,16 @@ class FleetChain(LeafSystem):
         tickets.add(self.discrete_state_ticket(self._modes))
         self.DeclareInitializationUnrestrictedUpdateEvent(self._update_modes)
         self.DeclarePerStepUnrestrictedUpdateEvent(self._update_modes)
+        self._witness = None
+        if n == 1:
+            self._witness = mode_witnesses(
+                self,
+                float,
+                self._states,
+                self._goals[0],
+                copy.deepcopy(params),
+                self._write_mode,
+            )
         self._last = LastResult()
         self.DeclareVectorOutputPort(
             "rotor_forces",
@@ -130,6 +146,16 @@ class FleetChain(LeafSystem):
         new = np.empty_like(modes)
         self._next_modes(states, self._goals, modes, self._params, new)
         state.get_mutable_discrete_state(self._modes).SetFromVector(new)
+
+    def _write_mode(self, state, mode: int) -> None:
+        """A lone vehicle's switch of eq 21 (its witness functions')."""
+        state.get_mutable_discrete_state(self._modes).SetAtIndex(0, float(mode))
+
+    def DoGetWitnessFunctions(self, context):
+        if self._witness is None:
+            return []
+        mode = context.get_discrete_state_vector().GetAtIndex(0)
+        return [self._witness[round(mode)]]
 
     def _rows(self, context) -> tuple[np.ndarray, np.ndarray]:
         """(rows (N, ROW_SIZE), the rotor forces (4 N)), computed once for
