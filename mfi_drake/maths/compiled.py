@@ -19,12 +19,32 @@ run. A few helpers are swapped for their float forms:
 
 Parameters travel as named tuples of a dataclass's fields (`record`): numba
 reads a named tuple's attributes as Python reads the dataclass's.
+
+Compiled once per machine: every clone keeps its machine code on disk
+(numba's cache, where numba puts it: NUMBA_CACHE_DIR if set, else the
+`__pycache__` beside the module if writable, else the user's cache
+directory), and a new process loads it instead of compiling (`_persist`).
+Two things make that sound where numba alone is not:
+
+- An obstacle field reaches the chain as an argument (`fields.superposed`
+  takes `field`), so the caller's cached signature holds the field's
+  dispatcher. Numba finds that dispatcher again in a new process by its
+  uuid: each clone's is its module and name (`_UUID`), registered before
+  any cached code loads, so the field is in effect a compile-time constant
+  (each field compiles its own chain) that a later process can name.
+- Numba stamps a cached function with its own file alone, while a clone's
+  machine code holds the clones it calls from the other modules: the stamp
+  here is the hash of every module of MODULES and of this one, so an edit
+  to any of them compiles everything afresh.
 """
 
 import collections
 import dataclasses
 import functools
+import hashlib
+import inspect
 import math
+import sys
 import types
 
 import numpy as np
@@ -97,9 +117,11 @@ def _namespaces() -> dict[str, dict]:
                 clone = types.FunctionType(
                     obj.__code__, namespaces[m.__name__], obj.__name__, obj.__defaults__
                 )
-                clones[id(obj)] = numba.njit(clone, cache=_cacheable(obj))
+                clones[id(obj)] = _persist(numba.njit(clone), m.__name__)
     swapped = {
-        name: numba.njit(f, cache=True) if isinstance(f, types.FunctionType) else f
+        name: _persist(numba.njit(f), __name__)
+        if isinstance(f, types.FunctionType)
+        else f
         for name, f in FLOAT_FORMS.items()
     }
     for namespace in namespaces.values():
@@ -109,6 +131,51 @@ def _namespaces() -> dict[str, dict]:
             elif id(obj) in clones:
                 namespace[name] = clones[id(obj)]
     return namespaces
+
+
+_UUID = "mfi_drake.maths.compiled:{}.{}"  # a clone's numba uuid: module, name
+
+
+def _persist(dispatcher, module: str):
+    """`dispatcher` (a fresh numba.njit) with its uuid `_UUID` and numba's
+    on-disk cache stamped by `_sources_stamp` (the module docstring)."""
+    dispatcher._set_uuid(_UUID.format(module, dispatcher.py_func.__name__))
+    dispatcher._cache = _cache_class()(dispatcher.py_func)
+    return dispatcher
+
+
+@functools.cache
+def _cache_class() -> type:
+    """numba's FunctionCache, its locators (numba's, in numba's order)
+    stamping a function with `_sources_stamp`."""
+    from numba.core import caching
+
+    def stamped(locator: type) -> type:
+        return type(
+            locator.__name__,
+            (locator,),
+            {"get_source_stamp": lambda self: _sources_stamp()},
+        )
+
+    impl = type(
+        "StampedCacheImpl",
+        (caching.CompileResultCacheImpl,),
+        {
+            "_locator_classes": [
+                stamped(c) for c in caching.CompileResultCacheImpl._locator_classes
+            ]
+        },
+    )
+    return type("StampedFunctionCache", (caching.FunctionCache,), {"_impl_class": impl})
+
+
+@functools.cache
+def _sources_stamp() -> str:
+    """The hash of the source of every module of MODULES and of this one."""
+    digest = hashlib.sha256()
+    for module in (*MODULES, sys.modules[__name__]):
+        digest.update(inspect.getsource(module).encode())
+    return digest.hexdigest()
 
 
 def specialised(function, *arguments):
@@ -123,16 +190,6 @@ def specialised(function, *arguments):
     return function.overloads[kinds].entry_point
 
 
-def _cacheable(function: types.FunctionType) -> bool:
-    """Whether numba may keep `function`'s machine code on disk for the next
-    process: not where it is given another compiled function (an obstacle
-    `field`, by this package's convention), whose type is that process's
-    dispatcher object (a later process found the cached entry's dispatcher
-    vanished: ReferenceError)."""
-    code = function.__code__
-    return "field" not in code.co_varnames[: code.co_argcount]
-
-
 def record(parameters) -> tuple:
     """A dataclass instance as a named tuple of its fields and properties,
     for `compiled` functions."""
@@ -145,4 +202,23 @@ def record(parameters) -> tuple:
 
 @functools.cache
 def _record_type(name: str, names: tuple[str, ...]) -> type:
-    return collections.namedtuple(name, names)
+    """The named tuple type of `record`, an attribute of this module by a
+    name that spells its fields (`__getattr__`): numba's cached signatures
+    hold the type, pickled by that name, and a later process rebuilds the
+    same type from it (a type made anew would match no cached signature)."""
+    kind = collections.namedtuple(name, names)
+    kind.__qualname__ = f"{_RECORD}{name}:{','.join(names)}"
+    kind.__module__ = __name__
+    return kind
+
+
+_RECORD = "record:"  # how the names of `_record_type`'s types begin
+
+
+def __getattr__(attribute: str) -> type:
+    """`_record_type`'s type by its name (PEP 562: the module's attributes
+    that are not defined in it)."""
+    if not attribute.startswith(_RECORD):
+        raise AttributeError(f"module {__name__!r} has no attribute {attribute!r}")
+    name, names = attribute.removeprefix(_RECORD).split(":")
+    return _record_type(name, tuple(names.split(",")))
