@@ -8,8 +8,8 @@
         ▲                  │ rotor_forces
         └── N QuadrotorPlants ◀┘
 
-N of Drake's QuadrotorPlant, one `systems.fleet.FleetChain` (MFI's chain
-compiled, every vehicle in one call), one Simulator with the scenario's
+N of Drake's QuadrotorPlant, one `systems.fleet.FleetChain` (the method's
+chain compiled, every vehicle in one call), one Simulator with the scenario's
 error-controlled integrator, one logger: every vehicle sees the others
 where they are, with no exchange. The other design, a diagram and
 Simulator a vehicle exchanging states at `exchange_hz`, is
@@ -33,7 +33,7 @@ from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
-from mfi_drake.maths import fields
+from mfi_drake.maths import baselines, fields
 from mfi_drake.maths.layout import (
     OBSTACLE_SIGNAL_SIZE,
     ROTORS,
@@ -41,7 +41,11 @@ from mfi_drake.maths.layout import (
 )
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.fleet import FleetChain
-from mfi_drake.systems.navigation import GoalAttractionSelector, ObstacleNavigator
+from mfi_drake.systems.navigation import (
+    GoalAttractionSelector,
+    ObstacleNavigator,
+    PotentialGoalAttraction,
+)
 from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
 from mfi_drake.world.motion import obstacles_move
 from mfi_drake.world.obstacles import register_obstacles
@@ -54,25 +58,39 @@ def flies_compiled(scenario: Scenario) -> bool:
     return scenario.engine == "compiled" or fleet_on_one
 
 
+# The obstacle fields the compiled chain flies (`maths.compiled` compiles
+# their modules): MFI's, APF's and GF's.
+COMPILED_FIELDS = (
+    fields.obstacle_field,
+    baselines.apf_obstacle_field,
+    baselines.gf_obstacle_field,
+)
+
+
 def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
     and eq 21 selector, with the smooth goal turn (eq 16–18's rotations are
-    not compiled, `maths.compiled`), the sphere sensor, no moving obstacle,
-    no faults, no point-cloud map; a fleet with the relative velocity."""
+    not compiled, `maths.compiled`), or APF's or GF's field and attraction;
+    the sphere sensor, no moving obstacle, no faults, no point-cloud map; a
+    fleet with the relative velocity."""
     method = resolve_method(method)
-    vehicle = VEHICLES[scenario.vehicle]
-    navigator = method.navigator(scenario, vehicle)
-    selector = method.goal_attraction(scenario, vehicle)
-    if not (
-        isinstance(navigator, ObstacleNavigator)
-        and navigator.field is fields.obstacle_field
-        and isinstance(selector, GoalAttractionSelector)
+    navigator, selector = method_systems(scenario, method)
+    mfi = (
+        isinstance(selector, GoalAttractionSelector)
         and selector.mass is not None
         and selector.fixed_mode is None
+    )
+    if not (
+        isinstance(navigator, ObstacleNavigator)
+        and navigator.field in COMPILED_FIELDS
+        and (mfi or isinstance(selector, PotentialGoalAttraction))
     ):
-        return f"method {method.name}: the compiled chain flies MFI's field only"
-    if not navigator.params.smooth_goal_turn:
+        return (
+            f"method {method.name}: the compiled chain flies the fields of "
+            "mfi, apf and gf only"
+        )
+    if mfi and not navigator.params.smooth_goal_turn:
         return f"{method.parameters}.smooth_goal_turn = false: not compiled"
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
@@ -85,6 +103,15 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     if scenario.other_vehicles and not scenario.relative_velocity.enabled:
         return "relative_velocity.enabled = false: one integrator flies with it"
     return None
+
+
+def method_systems(scenario: Scenario, method: Method) -> tuple:
+    """(navigator, goal attraction): `method`'s systems for `scenario`,
+    whose parameters the compiled chain copies."""
+    vehicle = VEHICLES[scenario.vehicle]
+    return method.navigator(scenario, vehicle), method.goal_attraction(
+        scenario, vehicle
+    )
 
 
 def check_one_integrator(scenario: Scenario, methods: list) -> None:
@@ -124,14 +151,20 @@ class OneIntegratorFleet:
         states = builder.AddNamedSystem("states", Multiplexer([STATE_SIZE] * n))
         for k, plant in enumerate(self.plants):
             builder.Connect(plant.get_output_port(0), states.get_input_port(k))
-        params = method.navigator(scenario, self.vehicle).params
+        navigator, selector = method_systems(scenario, method)
+        attract = baselines.attraction_terms  # the goal part of ...
+        if isinstance(selector, GoalAttractionSelector):  # ... all but MFI
+            attract = fields.goal_terms
         estimate = scenario.relative_velocity
         scene = bool(scenario.obstacles) or scenario.ground is not None
         chain = builder.AddNamedSystem(
             "fleet_chain",
             FleetChain(
                 [s.goal for s in self.flown],
-                params,
+                navigator.field,
+                attract,
+                navigator.params,
+                scenario.navigator,
                 self.vehicle,
                 scenario.sensor.radius,
                 estimate.keep_right,

@@ -44,14 +44,15 @@ import functools
 import hashlib
 import inspect
 import math
+import os
 import sys
 import types
 
 import numpy as np
 
-from mfi_drake.maths import fields, fleet, layout, motion, quadcopter, so3
+from mfi_drake.maths import baselines, fields, fleet, layout, motion, quadcopter, so3
 
-MODULES = (so3, layout, fields, motion, quadcopter, fleet)
+MODULES = (so3, layout, fields, baselines, motion, quadcopter, fleet)
 
 
 def _identity(a):
@@ -147,14 +148,25 @@ def _persist(dispatcher, module: str):
 @functools.cache
 def _cache_class() -> type:
     """numba's FunctionCache, its locators (numba's, in numba's order)
-    stamping a function with `_sources_stamp`."""
+    stamping a function with `_sources_stamp` and keeping it in a
+    directory of that stamp."""
     from numba.core import caching
 
     def stamped(locator: type) -> type:
+        def get_cache_path(self) -> str:
+            # A directory per stamp: an index written by other sources may
+            # name what these no longer hold, and numba unpickles it whole
+            # before it compares the stamps.
+            stamp = f"mfi_drake-{_sources_stamp()[:16]}"
+            return os.path.join(locator.get_cache_path(self), stamp)
+
         return type(
             locator.__name__,
             (locator,),
-            {"get_source_stamp": lambda self: _sources_stamp()},
+            {
+                "get_source_stamp": lambda self: _sources_stamp(),
+                "get_cache_path": get_cache_path,
+            },
         )
 
     impl = type(
@@ -178,6 +190,12 @@ def _sources_stamp() -> str:
     return digest.hexdigest()
 
 
+def compiled_form(function: types.FunctionType):
+    """The compiled clone of `function`, a function of a module of MODULES
+    (e.g. `fields.obstacle_field`)."""
+    return _namespaces()[function.__module__][function.__name__]
+
+
 def specialised(function, *arguments):
     """Calls `function` (a `compiled` one) with `arguments`, compiling it for
     their types, and returns its compiled entry for exactly those types.
@@ -191,13 +209,14 @@ def specialised(function, *arguments):
 
 
 def record(parameters) -> tuple:
-    """A dataclass instance as a named tuple of its fields and properties,
-    for `compiled` functions."""
+    """A dataclass instance as a named tuple of its fields and properties
+    (a dataclass among them as its own record), for `compiled` functions."""
     names = [f.name for f in dataclasses.fields(parameters)]
     kind = type(parameters)
     names += [n for n in dir(kind) if isinstance(getattr(kind, n), property)]
     values = (getattr(parameters, name) for name in names)
-    return _record_type(kind.__name__, tuple(names))(*values)
+    nested = (record(v) if dataclasses.is_dataclass(v) else v for v in values)
+    return _record_type(kind.__name__, tuple(names))(*nested)
 
 
 @functools.cache

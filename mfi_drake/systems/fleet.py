@@ -32,8 +32,9 @@ from mfi_drake.systems.navigation import mode_witnesses
 
 
 class FleetChain(LeafSystem):
-    """Every vehicle's sensor readings of the others, navigator, eq 21
-    selector, attitude PD and mixer (`maths.fleet.fleet_chain`).
+    """Every vehicle's sensor readings of the others, navigator, goal
+    attraction (eq 21's selector or the baselines'), attitude PD and mixer
+    (`maths.fleet.fleet_chain`).
 
     .. pydrake_system::
 
@@ -50,12 +51,21 @@ class FleetChain(LeafSystem):
     `scene`, else nothing); "rotor_forces": u of every vehicle (4 N); "rows":
     each vehicle's `maths.fleet.ROW`, what a single-vehicle diagram logs
     (ROW_SIZE N).
+
+    `field`, `attract`, `params`: the method's obstacle field and goal part
+    (functions of modules `maths.compiled` compiles: MFI's
+    `fields.obstacle_field` and eq 21's `fields.goal_terms`, or a
+    baseline's field and `baselines.attraction_terms`) and their
+    parameters; `attitude`: the attitude PD's (the scenario's `navigator`).
     """
 
     def __init__(
         self,
         goals,
-        params: NavigatorParams,
+        field,
+        attract,
+        params,
+        attitude: NavigatorParams,
         vehicle: Vehicle,
         sensor_radius: float,
         keep_right: float,
@@ -66,11 +76,13 @@ class FleetChain(LeafSystem):
         super().__init__()
         self._goals = np.array(goals, float)
         n = len(self._goals)
-        K_P, K_D = attitude_gains(vehicle, params)
+        K_P, K_D = attitude_gains(vehicle, attitude)
         # Copies of the parameters, in the compiled functions' form.
         self._constants = (
             compiled.record(params),
+            compiled.compiled_form(attract),
             compiled.record(vehicle),
+            compiled.record(attitude),
             K_P,
             K_D,
             np.linalg.inv(mixer_matrix(vehicle)),
@@ -85,7 +97,7 @@ class FleetChain(LeafSystem):
         # Compiled here, not within the flight: each function's entry for
         # the types every later call passes (`compiled.specialised`).
         functions = compiled.compiled(fleet)
-        self._field = compiled.compiled(fields).obstacle_field
+        self._field = compiled.compiled_form(field)
         at_rest = np.zeros((n, STATE_SIZE))
         self._no_scene = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
         self._chain = compiled.specialised(
@@ -98,14 +110,18 @@ class FleetChain(LeafSystem):
             *self._constants,
             np.zeros((n, fleet.ROW_SIZE)),
         )
-        self._next_modes = compiled.specialised(
-            functions.fleet_modes,
-            at_rest,
-            self._goals,
-            np.zeros(n),
-            self._params,
-            np.zeros(n),
-        )
+        # Eq 21's modes switch with MFI's selector only; the baselines'
+        # attraction stays in PD.
+        self._selects = attract is fields.goal_terms
+        if self._selects:
+            self._next_modes = compiled.specialised(
+                functions.fleet_modes,
+                at_rest,
+                self._goals,
+                np.zeros(n),
+                self._params,
+                np.zeros(n),
+            )
         self._states = self.DeclareVectorInputPort("states", STATE_SIZE * n)
         tickets = {self._states.ticket()}
         self._scene = None
@@ -114,10 +130,11 @@ class FleetChain(LeafSystem):
             tickets.add(self._scene.ticket())
         self._modes = self.DeclareDiscreteState(np.full(n, float(MODE_PD)))
         tickets.add(self.discrete_state_ticket(self._modes))
-        self.DeclareInitializationUnrestrictedUpdateEvent(self._update_modes)
-        self.DeclarePerStepUnrestrictedUpdateEvent(self._update_modes)
+        if self._selects:
+            self.DeclareInitializationUnrestrictedUpdateEvent(self._update_modes)
+            self.DeclarePerStepUnrestrictedUpdateEvent(self._update_modes)
         self._witness = None
-        if n == 1:
+        if n == 1 and self._selects:
             self._witness = mode_witnesses(
                 self,
                 float,
