@@ -170,9 +170,6 @@ def gf_obstacle_field(
 
 
 def _matrix_vector(S: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """S v for a 3×3 S, each row summed left to right: numba's matrix
-    product needs SciPy's BLAS, and BLAS's sums differ from these in the
-    last bit now and then (`maths.compiled` compiles this one)."""
-    return np.array(
-        [S[i, 0] * v[0] + S[i, 1] * v[1] + S[i, 2] * v[2] for i in range(3)]
-    )
+    """S v (`maths.compiled` writes it out: numba's matrix product needs
+    SciPy's BLAS)."""
+    return S @ v

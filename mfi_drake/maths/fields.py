@@ -528,8 +528,7 @@ def next_mode(mode: int, p: np.ndarray, v: np.ndarray, goal: np.ndarray, params)
 
 def _lag_drag(speed, F_perp_sq, lag: float, mass: float):
     # a = τ|F⊥|/m, so τω = a/v; D = (m/τ) v a² / (v² + 2a²), finite for v > 0.
-    ratio = lag / mass  # squared as a product, as numba does (not pow)
-    a_sq = F_perp_sq * (ratio * ratio)
+    a_sq = F_perp_sq * (lag / mass) ** 2
     return (mass / lag) * speed * a_sq / (speed * speed + 2.0 * a_sq)
 
 

@@ -86,11 +86,8 @@ def _brake_first(F, v, level, weight, params: NavigatorParams) -> tuple:
     # ≤ 0 with γ ≤ 0 (b is deliverable); its crossing to > 0 is the root
     # (−β + √(β² − aγ))/a = −γ/(β + √(β² − aγ)), each form used where it
     # does not cancel (β < 0 with a crossing in (0, 1] needs a > 0).
-    # Squares as products: Python's x ** 2 is libm's pow, which differs
-    # from x·x in the last bit now and then; numba's is x·x.
-    gain = params.K_Pv * level
-    K2 = gain * gain
-    t2 = params.max_tilt * params.max_tilt
+    K2 = (params.K_Pv * level) ** 2
+    t2 = params.max_tilt**2
     lift = b[2] + weight
     a = K2 * (q[0] * q[0] + q[1] * q[1]) - t2 * q[2] * q[2]
     beta = K2 * (b[0] * q[0] + b[1] * q[1]) - t2 * q[2] * lift
@@ -189,10 +186,10 @@ def desired_yaw(v: np.ndarray, yaw, params: NavigatorParams):
     if not params.yaw_follows_motion:
         return 0.0 * yaw
     speed_sq = v[0] * v[0] + v[1] * v[1]
-    if speed_sq <= params.v_stop * params.v_stop:
+    if speed_sq <= params.v_stop**2:
         return yaw
     error = wrap_angle(np.arctan2(v[1], v[0]) - yaw)
-    if speed_sq >= params.v_min * params.v_min:
+    if speed_sq >= params.v_min**2:
         return yaw + error
     weight = (np.sqrt(speed_sq) - params.v_stop) / (params.v_min - params.v_stop)
     return yaw + weight * error
