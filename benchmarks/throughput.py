@@ -18,6 +18,12 @@ Prints, all measured in this run (the machine's load average with each):
    in turn, --repeats times each, and each keeps its best wall and CPU
    time; their real-time factors, steps and µs per step and per derivative
    evaluation, and the ratio MFI / reference of the real-time factors.
+   Beside them the same flight on the compiled engine (`engine: compiled`,
+   the chain in one compiled system), its ratio to the reference, and the
+   whole command, `mfi-drake run --json` in a fresh process on each engine
+   (imports, loading the compiled chain from numba's cache, the flight, the
+   figure): its wall time from start to exit beside the flight's own
+   real-time factor, which leaves all that out.
    Then the floor: the MFI diagram flown with stale results
    (`StaleResults`: no arithmetic in its Python systems) costs per step
    what its structure costs, against the cost per step that a ratio of
@@ -51,6 +57,7 @@ import argparse
 import dataclasses
 import glob
 import io
+import json
 import os
 import subprocess
 import sys
@@ -126,6 +133,7 @@ def best(runs: list[Run]) -> Run:
 
 
 def mfi_run(scenario: Scenario) -> Run:
+    """The scenario flown by MFI on its engine (`engine:`)."""
     flight = simulate(scenario)
     return Run(
         sim_time=flight.metrics["sim_time"],
@@ -198,20 +206,34 @@ def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
     same diagram with stale results (`StaleResults`): the cost of a step
     without the Python arithmetic, against the cost a step may have for the
     flight to reach BAR_RATIO of the C++ diagram's real-time factor."""
-    mfi, lqr = [], []
+    mfi, lqr, fast = [], [], []
+    on_compiled = dataclasses.replace(scenario, engine="compiled")
+    mfi_run(on_compiled)  # compiled (or loaded from the cache) before timing
     say(f"1. {scenario.name}, {scenario.duration:g} s, best of {repeats} ({load()})")
     for _ in range(repeats):
         mfi.append(mfi_run(scenario))
         lqr.append(lqr_run(scenario))
-    mfi, lqr = best(mfi), best(lqr)
+        fast.append(mfi_run(on_compiled))
+    mfi, lqr, fast = best(mfi), best(lqr), best(fast)
     ratio = mfi.realtime_factor / lqr.realtime_factor
     cpu_ratio = mfi.cpu_realtime_factor / lqr.cpu_realtime_factor
+    compiled_ratio = fast.realtime_factor / lqr.realtime_factor
     say(f"   MFI (Python LeafSystems): {mfi.describe()}")
+    say(f"   MFI (compiled engine): {fast.describe()}")
     say(f"   C++ QuadrotorPlant + LQR: {lqr.describe()}")
     say(
         f"   ratio of real-time factors MFI / C++: {ratio:.4f} wall, "
-        f"{cpu_ratio:.4f} CPU ({load()})"
+        f"{cpu_ratio:.4f} CPU; compiled / C++: {compiled_ratio:.4f} wall "
+        f"({load()})"
     )
+    commands = {}
+    for engine in ("systems", "compiled"):
+        commands[engine] = whole_command(scenario, engine)
+        wall, factor = commands[engine]
+        say(
+            f"   the whole `mfi-drake run --json` on {engine}: {wall:.2f} s from "
+            f"start to exit; the flight's realtime_factor {factor:.1f}x"
+        )
     with StaleResults():
         floor = best([mfi_run(scenario) for _ in range(repeats)])
     allowed = lqr.cpu_time / BAR_RATIO / mfi.steps
@@ -226,11 +248,36 @@ def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
     return {
         "mfi": mfi,
         "lqr": lqr,
+        "compiled": fast,
+        "compiled_ratio": compiled_ratio,
+        "commands": commands,
         "ratio": ratio,
         "cpu_ratio": cpu_ratio,
         "floor": floor,
         "allowed_per_step": allowed,
     }
+
+
+def whole_command(scenario: Scenario, engine: str) -> tuple[float, float]:
+    """(wall time [s] from process start to exit, the flight's own
+    realtime_factor) of `mfi-drake run --json` flying `scenario` (written
+    to a file) on `engine` in a fresh process."""
+    with tempfile.TemporaryDirectory() as out:
+        path = os.path.join(out, "scenario.yaml")
+        with open(path, "w") as f:
+            f.write(scenario_to_yaml(dataclasses.replace(scenario, engine=engine)))
+        command = [sys.executable, "-m", "mfi_drake.app.cli", "run", path]
+        start = time.perf_counter()
+        done = subprocess.run(
+            [*command, "--json", "--out", os.path.join(out, "run")],
+            capture_output=True,
+            text=True,
+        )
+        wall = time.perf_counter() - start
+    if done.returncode not in (0, 1):  # 1: flown, not reached
+        raise RuntimeError(f"{' '.join(command)}: {done.stderr.strip()}")
+    metrics = json.loads(done.stdout.splitlines()[-1])
+    return wall, metrics["realtime_factor"]
 
 
 PIECES = ("generate", "yaml", "reference", "build", "simulate", "metrics")

@@ -42,6 +42,17 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     assert lqr.sim_time == pytest.approx(2.0)
     assert result["ratio"] == pytest.approx(mfi.realtime_factor / lqr.realtime_factor)
     assert f"{result['ratio']:.4f}" in out
+    # The compiled engine beside them, and the whole command on each engine.
+    fast = result["compiled"]
+    assert "MFI (compiled engine)" in out and fast.sim_time == pytest.approx(2.0)
+    assert result["compiled_ratio"] == pytest.approx(
+        fast.realtime_factor / lqr.realtime_factor
+    )
+    assert f"compiled / C++: {result['compiled_ratio']:.4f}" in out
+    for engine in ("systems", "compiled"):
+        wall, factor = result["commands"][engine]
+        assert wall > 2.0 / factor  # the command holds the flight and more
+        assert f"`mfi-drake run --json` on {engine}" in out
     # RK3 evaluates the derivatives three times per attempted step, and
     # rejected steps are attempted again: at least three per accepted step.
     for run in (mfi, lqr):

@@ -83,11 +83,14 @@ def chain_arguments(scene, states, scene_readings, modes, compiled_form):
     K_P, K_D = attitude_gains(VEHICLE, scene.navigator)
     D_inv = np.linalg.inv(mixer_matrix(VEHICLE))
     field, params, vehicle = fields.obstacle_field, scene.navigator, VEHICLE
+    goal_terms = fields.goal_terms
     if compiled_form:
         field = compiled.compiled(fields).obstacle_field
+        goal_terms = compiled.compiled(fields).goal_terms
         params, vehicle = compiled.record(params), compiled.record(vehicle)
     else:
         D_inv = D_inv.tolist()  # as RotorMixer gives it
+    attitude = params
     estimate = scene.relative_velocity
     return (
         field,
@@ -96,7 +99,9 @@ def chain_arguments(scene, states, scene_readings, modes, compiled_form):
         np.array(modes, float),
         np.array([s.goal for s in flown], float),
         params,
+        goal_terms,  # eq 21's selector (MFI)
         vehicle,
+        attitude,
         K_P,
         K_D,
         D_inv,
@@ -199,7 +204,7 @@ def test_a_fleet_on_one_integrator_stops_where_two_vehicles_touch():
 @pytest.mark.parametrize(
     "change, method, named",
     [
-        ({}, "apf", "method apf"),
+        ({}, "mfi-nc", "method mfi-nc"),
         ({}, "mfi-paper", "mfi_paper.smooth_goal_turn"),
         ({"sensor": "cameras"}, "mfi", "sensor"),
     ],
@@ -217,9 +222,10 @@ def test_what_one_integrator_cannot_fly_is_refused_by_name(change, method, named
 
 def test_run_refuses_a_method_one_integrator_cannot_fly_before_flying(capsys):
     path = f"{SCENARIOS}/swarm_corridor.yaml"
-    status = main(["run", path, "--method", "gf", "--set", "fleet_integration: one"])
+    argv = ["run", path, "--method", "mfi-nc", "--set", "fleet_integration: one"]
+    status = main(argv)
     err = capsys.readouterr().err
-    assert status == 2 and "fleet_integration = 'one'" in err and "method gf" in err
+    assert status == 2 and "fleet_integration = 'one'" in err and "method mfi-nc" in err
 
 
 def test_an_unknown_fleet_integration_is_refused_by_name(capsys):

@@ -123,3 +123,8 @@ def test_goal_scenes_round_trip(tmp_path, layout):
     round_trips(goal_scenes.goal_scene(layout, gap), str(tmp_path))
     without = goal_scenes.without_terminal_approach(goal_scenes.goal_scene(layout, gap))
     round_trips(without, str(tmp_path))
+
+
+def test_the_compiled_engine_round_trips(tmp_path):
+    scene = generator.random_field(3, 0, 0.05)
+    round_trips(dataclasses.replace(scene, engine="compiled"), str(tmp_path))

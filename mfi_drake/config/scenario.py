@@ -40,6 +40,10 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.maths.point_maps import MAP_VOXEL
 
 FLEET_INTEGRATIONS = ("separate", "one")
+# How the chain is evaluated (docs/performance.md, "Engines"): "systems",
+# the design card's diagram of LeafSystems; "compiled", the same maths in
+# one compiled system.
+ENGINES = ("systems", "compiled")
 MAP_SUFFIXES = (".ply", ".pcd")  # a `world:` that is a point-cloud map
 
 
@@ -231,6 +235,9 @@ class Scenario:
     # Simulator a vehicle exchanging states at exchange_hz; "one", every
     # vehicle in one diagram and integrator, MFI compiled.
     fleet_integration: str = "separate"
+    # "systems" (a LeafSystem a block) or "compiled" (the chain in one
+    # compiled system, `flight.fleet.OneIntegratorFleet`): see ENGINES.
+    engine: str = "systems"
     relative_velocity: RelativeVelocity = field(default_factory=RelativeVelocity)
     navigator: NavigatorParams = field(default_factory=NavigatorParams)
     # The paper's literal MFI (method "mfi-paper"): its own gains, repairs off.
@@ -388,6 +395,19 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
             "fleet_integration",
             scenario.fleet_integration,
             f"must be one of {', '.join(FLEET_INTEGRATIONS)}",
+        )
+    if scenario.engine not in ENGINES:
+        fail(where, "engine", scenario.engine, f"must be one of {', '.join(ENGINES)}")
+    if (
+        scenario.engine == "compiled"
+        and scenario.other_vehicles
+        and scenario.fleet_integration != "one"
+    ):
+        fail(
+            where,
+            "engine",
+            scenario.engine,
+            "a fleet flies compiled on one integrator (fleet_integration: one)",
         )
     estimate = scenario.relative_velocity
     _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)

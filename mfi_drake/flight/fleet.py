@@ -8,12 +8,16 @@
         ▲                  │ rotor_forces
         └── N QuadrotorPlants ◀┘
 
-N of Drake's QuadrotorPlant, one `systems.fleet.FleetChain` (MFI's chain
-compiled, every vehicle in one call), one Simulator with the scenario's
+N of Drake's QuadrotorPlant, one `systems.fleet.FleetChain` (the method's
+chain compiled, every vehicle in one call), one Simulator with the scenario's
 error-controlled integrator, one logger: every vehicle sees the others
 where they are, with no exchange. The other design, a diagram and
 Simulator a vehicle exchanging states at `exchange_hz`, is
 `fleet_exchange.fly_fleet`; `one_integrator.fly_one_integrator` flies this one.
+
+A lone vehicle with `engine: compiled` is this diagram with N = 1: the
+compiled engine (`flies_compiled`), the same chain as the card's diagram of
+LeafSystems (`engine: systems`, `flight.diagram`) in one system.
 """
 
 from pydrake.geometry import SceneGraph
@@ -24,11 +28,12 @@ from pydrake.systems.primitives import (
     Multiplexer,
 )
 
+from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
-from mfi_drake.maths import fields
+from mfi_drake.maths import baselines, fields
 from mfi_drake.maths.layout import (
     OBSTACLE_SIGNAL_SIZE,
     ROTORS,
@@ -36,52 +41,93 @@ from mfi_drake.maths.layout import (
 )
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.fleet import FleetChain
-from mfi_drake.systems.navigation import GoalAttractionSelector, ObstacleNavigator
+from mfi_drake.systems.navigation import (
+    GoalAttractionSelector,
+    ObstacleNavigator,
+    PotentialGoalAttraction,
+)
 from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
 from mfi_drake.world.motion import obstacles_move
 from mfi_drake.world.obstacles import register_obstacles
 
 
+def flies_compiled(scenario: Scenario) -> bool:
+    """Whether `scenario` flies on the compiled engine: `engine: compiled`,
+    or a fleet on one integrator (compiled whatever its engine)."""
+    fleet_on_one = bool(scenario.other_vehicles) and scenario.fleet_integration == "one"
+    return scenario.engine == "compiled" or fleet_on_one
+
+
+# The obstacle fields the compiled chain flies (`maths.compiled` compiles
+# their modules): MFI's, APF's and GF's.
+COMPILED_FIELDS = (
+    fields.obstacle_field,
+    baselines.apf_obstacle_field,
+    baselines.gf_obstacle_field,
+)
+
+
 def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
-    """Why `scenario` cannot be flown by `method` on one integrator (a
+    """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
     and eq 21 selector, with the smooth goal turn (eq 16–18's rotations are
-    not compiled, `maths.compiled`), the sphere sensor, the relative
-    velocity, no moving obstacle."""
+    not compiled, `maths.compiled`), or APF's or GF's field and attraction;
+    the sphere sensor, no moving obstacle, no faults, no point-cloud map; a
+    fleet with the relative velocity."""
     method = resolve_method(method)
-    vehicle = VEHICLES[scenario.vehicle]
-    navigator = method.navigator(scenario, vehicle)
-    selector = method.goal_attraction(scenario, vehicle)
-    if not (
-        isinstance(navigator, ObstacleNavigator)
-        and navigator.field is fields.obstacle_field
-        and isinstance(selector, GoalAttractionSelector)
+    navigator, selector = method_systems(scenario, method)
+    mfi = (
+        isinstance(selector, GoalAttractionSelector)
         and selector.mass is not None
         and selector.fixed_mode is None
+    )
+    if not (
+        isinstance(navigator, ObstacleNavigator)
+        and navigator.field in COMPILED_FIELDS
+        and (mfi or isinstance(selector, PotentialGoalAttraction))
     ):
-        return f"method {method.name}: one integrator flies MFI's field only"
-    if not navigator.params.smooth_goal_turn:
+        return (
+            f"method {method.name}: the compiled chain flies the fields of "
+            "mfi, apf and gf only"
+        )
+    if mfi and not navigator.params.smooth_goal_turn:
         return f"{method.parameters}.smooth_goal_turn = false: not compiled"
     if not isinstance(scenario.sensor, SphereSensor):
-        return "sensor: one integrator flies the sphere sensor only"
+        return "sensor: the compiled chain flies the sphere sensor only"
     if obstacles_move(scenario):
-        return "obstacles: one integrator flies no moving obstacle"
-    if not scenario.relative_velocity.enabled:
+        return "obstacles: the compiled chain flies no moving obstacle"
+    if scenario.faults != Faults():
+        return "faults: the compiled chain flies none"
+    if scenario.map_points:
+        return "world: the compiled chain flies no point-cloud map"
+    if scenario.other_vehicles and not scenario.relative_velocity.enabled:
         return "relative_velocity.enabled = false: one integrator flies with it"
     return None
 
 
+def method_systems(scenario: Scenario, method: Method) -> tuple:
+    """(navigator, goal attraction): `method`'s systems for `scenario`,
+    whose parameters the compiled chain copies."""
+    vehicle = VEHICLES[scenario.vehicle]
+    return method.navigator(scenario, vehicle), method.goal_attraction(
+        scenario, vehicle
+    )
+
+
 def check_one_integrator(scenario: Scenario, methods: list) -> None:
-    """Raises ScenarioError where `scenario` asks for one integrator and a
-    method of `methods` cannot be flown so (`unsupported`)."""
-    if not scenario.other_vehicles or scenario.fleet_integration != "one":
+    """Raises ScenarioError where `scenario` flies on the compiled engine
+    (`flies_compiled`: a fleet on one integrator, or `engine: compiled`)
+    and a method of `methods` cannot be flown so (`unsupported`)."""
+    if not flies_compiled(scenario):
         return
+    asked, other = "engine = 'compiled'", "engine: systems"
+    if scenario.engine != "compiled":
+        asked, other = "fleet_integration = 'one'", "fleet_integration: separate"
     for method in methods:
         reason = unsupported(scenario, method)
         if reason is not None:
             raise ScenarioError(
-                f"{scenario.name}: fleet_integration = 'one': {reason} "
-                "(fleet_integration: separate flies it)"
+                f"{scenario.name}: {asked}: {reason} ({other} flies it)"
             )
 
 
@@ -105,14 +151,20 @@ class OneIntegratorFleet:
         states = builder.AddNamedSystem("states", Multiplexer([STATE_SIZE] * n))
         for k, plant in enumerate(self.plants):
             builder.Connect(plant.get_output_port(0), states.get_input_port(k))
-        params = method.navigator(scenario, self.vehicle).params
+        navigator, selector = method_systems(scenario, method)
+        attract = baselines.attraction_terms  # the goal part of ...
+        if isinstance(selector, GoalAttractionSelector):  # ... all but MFI
+            attract = fields.goal_terms
         estimate = scenario.relative_velocity
         scene = bool(scenario.obstacles) or scenario.ground is not None
         chain = builder.AddNamedSystem(
             "fleet_chain",
             FleetChain(
                 [s.goal for s in self.flown],
-                params,
+                navigator.field,
+                attract,
+                navigator.params,
+                scenario.navigator,
                 self.vehicle,
                 scenario.sensor.radius,
                 estimate.keep_right,
@@ -149,4 +201,5 @@ class OneIntegratorFleet:
         self.logger.set_name("logger")
         self.chain, self.states = chain, states
         self.diagram = builder.Build()
-        self.diagram.set_name(f"mfi_drake[{scenario.name}, {self.method}, fleet]")
+        kind = "fleet" if n > 1 else "compiled"
+        self.diagram.set_name(f"mfi_drake[{scenario.name}, {self.method}, {kind}]")

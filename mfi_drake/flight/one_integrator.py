@@ -42,7 +42,7 @@ def one_integrator_monitor(
         )
         x = states.reshape(n, STATE_SIZE)
         if stop_at_contact:
-            if centre_gap(x[:, POSITION]) < 2.0 * radius - CONTACT_MARGIN:
+            if n > 1 and centre_gap(x[:, POSITION]) < 2.0 * radius - CONTACT_MARGIN:
                 return EventStatus.ReachedTermination(fleet.chain, "vehicles touch")
             for sensor in fleet.sensors:
                 port = sensor.get_output_port(0)
@@ -61,9 +61,10 @@ def fly_one_integrator(
     until_settled: bool = False,
     stop_at_contact: bool = False,
 ) -> Flight:
-    """Flies a fleet on one integrator (`OneIntegratorFleet`). Returns the
-    first vehicle's Flight with the others in `others`, each with the
-    single-vehicle log layout; wall and CPU times are the fleet's."""
+    """Flies a fleet, or a lone vehicle on the compiled engine, on one
+    integrator (`OneIntegratorFleet`). Returns the first vehicle's Flight
+    with the others in `others`, each with the single-vehicle log layout;
+    wall and CPU times are the fleet's."""
     fleet_diagram = OneIntegratorFleet(scenario, method)
     simulator = simulator_at_start(
         fleet_diagram.diagram, fleet_diagram.plants[0], scenario

@@ -1,13 +1,14 @@
 """Flying a scenario: `simulate` builds what the scenario needs and flies
 it, one vehicle (`simulator.fly`), a fleet by exchange
-(`fleet_exchange.fly_fleet`) or a fleet on one integrator
-(`one_integrator.fly_one_integrator`), and returns the `Flight` with its
-metrics (`result`)."""
+(`fleet_exchange.fly_fleet`) or a fleet, or a lone vehicle on the compiled
+engine, on one integrator (`one_integrator.fly_one_integrator`), and
+returns the `Flight` with its metrics (`result`)."""
 
 from collections.abc import Callable
 
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.flight.diagram import build_diagram
+from mfi_drake.flight.fleet import flies_compiled
 from mfi_drake.flight.fleet_exchange import fly_fleet
 from mfi_drake.flight.methods import Method
 from mfi_drake.flight.one_integrator import fly_one_integrator
@@ -29,10 +30,16 @@ def simulate(
     field as "MODULE:NAME" or as the function itself (see `methods`).
     `until_settled`, `stop_at_contact`: see `fly`. With `other_vehicles`,
     every vehicle is flown (`fly_fleet`), over `processes` processes; with
-    `fleet_integration: one`, on one integrator in this process
-    (`fly_one_integrator`)."""
-    if scenario.other_vehicles and scenario.fleet_integration == "one":
-        return fly_one_integrator(scenario, method, until_settled, stop_at_contact)
-    if scenario.other_vehicles:
-        return fly_fleet(scenario, method, until_settled, stop_at_contact, processes)
-    return fly(build_diagram(scenario, method), until_settled, stop_at_contact)
+    `fleet_integration: one`, or alone with `engine: compiled`, on one
+    integrator in this process, the chain compiled (`fly_one_integrator`).
+    The metrics name the engine that flew ("engine": "systems" or
+    "compiled")."""
+    if flies_compiled(scenario):
+        flight = fly_one_integrator(scenario, method, until_settled, stop_at_contact)
+        flight.metrics["engine"] = "compiled"
+    elif scenario.other_vehicles:
+        flight = fly_fleet(scenario, method, until_settled, stop_at_contact, processes)
+    else:
+        flight = fly(build_diagram(scenario, method), until_settled, stop_at_contact)
+    flight.metrics.setdefault("engine", "systems")
+    return flight

@@ -53,6 +53,15 @@ def attraction_field(
     return -(a.k_att * d_star / d) * e - a.k_d * v
 
 
+def attraction_terms(mode, p, v, goal, params, F_o=None, mass=None) -> tuple:
+    """The baselines' goal part laid out as `fields.goal_terms`' (F_gc, F_v,
+    F_pd), for a chain that takes either: (0, 0, `attraction_field` of
+    `params.attraction`), whatever eq 21's `mode`, F_o and mass (the
+    baselines have no cruise mode)."""
+    zero = 0.0 * v
+    return zero, zero, attraction_field(p, v, goal, params.attraction)
+
+
 # --- repulsion (both baselines) -----------------------------------------------
 def repulsive_potential(r, eta: float, rho_0: float):
     """Khatib's U_rep = ½ η (1/r − 1/ρ₀)² for r < ρ₀, else 0 [J]."""
@@ -157,4 +166,10 @@ def gf_obstacle_field(
         return zero, zero
     n, r = closest
     S = gyroscopic_matrix(v, n, r, r_g, params)
-    return S @ v, repulsive_field(n, r, params.eta, params.rho_0)
+    return _matrix_vector(S, v), repulsive_field(n, r, params.eta, params.rho_0)
+
+
+def _matrix_vector(S: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """S v (`maths.compiled` writes it out: numba's matrix product needs
+    SciPy's BLAS)."""
+    return S @ v

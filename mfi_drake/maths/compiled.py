@@ -13,25 +13,49 @@ run. A few helpers are swapped for their float forms:
 - `fields._zeros` and `fields._zero3` give float zeros;
 - `motion._length` is √(x² + y² + z²): numba's hypot takes two arguments
   (the two differ in the last bit);
+- `baselines._matrix_vector` (GF's S ṗ) is written out: numba's matrix
+  product needs SciPy's BLAS (BLAS sums in its own order: the two differ in
+  the last bit now and then);
 - `fields._paper_attraction`, eq 16–18 by rotation matrices (numba's matrix
   product needs SciPy's BLAS), raises: a fleet whose parameters turn that
   way is refused before it flies (`flight.fleet.unsupported`).
 
 Parameters travel as named tuples of a dataclass's fields (`record`): numba
 reads a named tuple's attributes as Python reads the dataclass's.
+
+Compiled once per machine: every clone keeps its machine code on disk
+(numba's cache, where numba puts it: NUMBA_CACHE_DIR if set, else the
+`__pycache__` beside the module if writable, else the user's cache
+directory), and a new process loads it instead of compiling (`_persist`).
+Two things make that sound where numba alone is not:
+
+- An obstacle field reaches the chain as an argument (`fields.superposed`
+  takes `field`), so the caller's cached signature holds the field's
+  dispatcher. Numba finds that dispatcher again in a new process by its
+  uuid: each clone's is its module and name (`_UUID`), registered before
+  any cached code loads, so the field is in effect a compile-time constant
+  (each field compiles its own chain) that a later process can name.
+- Numba stamps a cached function with its own file alone, while a clone's
+  machine code holds the clones it calls from the other modules: the stamp
+  here is the hash of every module of MODULES and of this one, so an edit
+  to any of them compiles everything afresh.
 """
 
 import collections
 import dataclasses
 import functools
+import hashlib
+import inspect
 import math
+import os
+import sys
 import types
 
 import numpy as np
 
-from mfi_drake.maths import fields, fleet, layout, motion, quadcopter, so3
+from mfi_drake.maths import baselines, fields, fleet, layout, motion, quadcopter, so3
 
-MODULES = (so3, layout, fields, motion, quadcopter, fleet)
+MODULES = (so3, layout, fields, baselines, motion, quadcopter, fleet)
 
 
 def _identity(a):
@@ -48,6 +72,13 @@ def _float_zero3(like):
 
 def _float_length(x, y, z):
     return math.sqrt(x * x + y * y + z * z)
+
+
+def _float_matrix_vector(S, v):
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = S[i, 0] * v[0] + S[i, 1] * v[1] + S[i, 2] * v[2]
+    return out
 
 
 def _not_compiled(v, l_a, l_g, K_omega):
@@ -67,6 +98,7 @@ FLOAT_FORMS = {
     "_zeros": _float_zeros,
     "_zero3": _float_zero3,
     "_length": _float_length,
+    "_matrix_vector": _float_matrix_vector,
     "_paper_attraction": _not_compiled,
 }
 
@@ -97,9 +129,11 @@ def _namespaces() -> dict[str, dict]:
                 clone = types.FunctionType(
                     obj.__code__, namespaces[m.__name__], obj.__name__, obj.__defaults__
                 )
-                clones[id(obj)] = numba.njit(clone, cache=_cacheable(obj))
+                clones[id(obj)] = _persist(numba.njit(clone), m.__name__)
     swapped = {
-        name: numba.njit(f, cache=True) if isinstance(f, types.FunctionType) else f
+        name: _persist(numba.njit(f), __name__)
+        if isinstance(f, types.FunctionType)
+        else f
         for name, f in FLOAT_FORMS.items()
     }
     for namespace in namespaces.values():
@@ -109,6 +143,68 @@ def _namespaces() -> dict[str, dict]:
             elif id(obj) in clones:
                 namespace[name] = clones[id(obj)]
     return namespaces
+
+
+_UUID = "mfi_drake.maths.compiled:{}.{}"  # a clone's numba uuid: module, name
+
+
+def _persist(dispatcher, module: str):
+    """`dispatcher` (a fresh numba.njit) with its uuid `_UUID` and numba's
+    on-disk cache stamped by `_sources_stamp` (the module docstring)."""
+    dispatcher._set_uuid(_UUID.format(module, dispatcher.py_func.__name__))
+    dispatcher._cache = _cache_class()(dispatcher.py_func)
+    return dispatcher
+
+
+@functools.cache
+def _cache_class() -> type:
+    """numba's FunctionCache, its locators (numba's, in numba's order)
+    stamping a function with `_sources_stamp` and keeping it in a
+    directory of that stamp."""
+    from numba.core import caching
+
+    def stamped(locator: type) -> type:
+        def get_cache_path(self) -> str:
+            # A directory per stamp: an index written by other sources may
+            # name what these no longer hold, and numba unpickles it whole
+            # before it compares the stamps.
+            stamp = f"mfi_drake-{_sources_stamp()[:16]}"
+            return os.path.join(locator.get_cache_path(self), stamp)
+
+        return type(
+            locator.__name__,
+            (locator,),
+            {
+                "get_source_stamp": lambda self: _sources_stamp(),
+                "get_cache_path": get_cache_path,
+            },
+        )
+
+    impl = type(
+        "StampedCacheImpl",
+        (caching.CompileResultCacheImpl,),
+        {
+            "_locator_classes": [
+                stamped(c) for c in caching.CompileResultCacheImpl._locator_classes
+            ]
+        },
+    )
+    return type("StampedFunctionCache", (caching.FunctionCache,), {"_impl_class": impl})
+
+
+@functools.cache
+def _sources_stamp() -> str:
+    """The hash of the source of every module of MODULES and of this one."""
+    digest = hashlib.sha256()
+    for module in (*MODULES, sys.modules[__name__]):
+        digest.update(inspect.getsource(module).encode())
+    return digest.hexdigest()
+
+
+def compiled_form(function: types.FunctionType):
+    """The compiled clone of `function`, a function of a module of MODULES
+    (e.g. `fields.obstacle_field`)."""
+    return _namespaces()[function.__module__][function.__name__]
 
 
 def specialised(function, *arguments):
@@ -123,26 +219,36 @@ def specialised(function, *arguments):
     return function.overloads[kinds].entry_point
 
 
-def _cacheable(function: types.FunctionType) -> bool:
-    """Whether numba may keep `function`'s machine code on disk for the next
-    process: not where it is given another compiled function (an obstacle
-    `field`, by this package's convention), whose type is that process's
-    dispatcher object (a later process found the cached entry's dispatcher
-    vanished: ReferenceError)."""
-    code = function.__code__
-    return "field" not in code.co_varnames[: code.co_argcount]
-
-
 def record(parameters) -> tuple:
-    """A dataclass instance as a named tuple of its fields and properties,
-    for `compiled` functions."""
+    """A dataclass instance as a named tuple of its fields and properties
+    (a dataclass among them as its own record), for `compiled` functions."""
     names = [f.name for f in dataclasses.fields(parameters)]
     kind = type(parameters)
     names += [n for n in dir(kind) if isinstance(getattr(kind, n), property)]
     values = (getattr(parameters, name) for name in names)
-    return _record_type(kind.__name__, tuple(names))(*values)
+    nested = (record(v) if dataclasses.is_dataclass(v) else v for v in values)
+    return _record_type(kind.__name__, tuple(names))(*nested)
 
 
 @functools.cache
 def _record_type(name: str, names: tuple[str, ...]) -> type:
-    return collections.namedtuple(name, names)
+    """The named tuple type of `record`, an attribute of this module by a
+    name that spells its fields (`__getattr__`): numba's cached signatures
+    hold the type, pickled by that name, and a later process rebuilds the
+    same type from it (a type made anew would match no cached signature)."""
+    kind = collections.namedtuple(name, names)
+    kind.__qualname__ = f"{_RECORD}{name}:{','.join(names)}"
+    kind.__module__ = __name__
+    return kind
+
+
+_RECORD = "record:"  # how the names of `_record_type`'s types begin
+
+
+def __getattr__(attribute: str) -> type:
+    """`_record_type`'s type by its name (PEP 562: the module's attributes
+    that are not defined in it)."""
+    if not attribute.startswith(_RECORD):
+        raise AttributeError(f"module {__name__!r} has no attribute {attribute!r}")
+    name, names = attribute.removeprefix(_RECORD).split(":")
+    return _record_type(name, tuple(names.split(",")))

@@ -1,6 +1,7 @@
 """A fleet's whole chain in one call: for every vehicle, its readings of the
-others, the relative obstacle field (eq 11–15), eq 21's goal terms (eq
-16–20), the attitude PD (eq 22–25) and the mixer (eq 8), composed of the
+others, the relative obstacle field (eq 11–15, or a baseline's), eq 21's
+goal terms (eq 16–20, or the baselines' attraction), the attitude PD (eq
+22–25) and the mixer (eq 8), composed of the
 functions the single-vehicle systems call, in the order they call them
 (docs/fleets.md, "One integrator"). Plain Python, so it runs as it is;
 `maths.compiled` compiles it for `systems.fleet.FleetChain`.
@@ -8,7 +9,7 @@ functions the single-vehicle systems call, in the order they call them
 
 import numpy as np
 
-from mfi_drake.maths.fields import goal_terms, next_mode
+from mfi_drake.maths.fields import next_mode, superposed
 from mfi_drake.maths.layout import POSITION, VELOCITY, slices
 from mfi_drake.maths.motion import relative_field, vehicle_readings
 from mfi_drake.maths.quadcopter import attitude_command, mix
@@ -41,7 +42,9 @@ def fleet_chain(
     modes: np.ndarray,
     goals: np.ndarray,
     params,
+    attract,
     vehicle,
+    attitude,
     K_P: np.ndarray,
     K_D: np.ndarray,
     D_inv: np.ndarray,
@@ -53,36 +56,48 @@ def fleet_chain(
     rows: np.ndarray,
 ) -> None:
     """Fills `rows` (N, ROW_SIZE) with each vehicle's ROW at the fleet's
-    `states` (N, 12) under the obstacle field `field`
-    (`fields.obstacle_field`, or its compiled form). Vehicle k sees the
-    scene's readings `scene[k]` and the others' collision spheres (radius
-    `radius`, within the sensor's `reach`; `vehicle_readings`), flies eq
-    21's `modes[k]` toward `goals[k]`. `params`, `vehicle`: MFI's
-    parameters and the vehicle (`compiled.record` for the compiled form);
-    K_P, K_D: eq 25's gains; D_inv: eq 8 inverted; keep_right, own_pace,
-    blend_speed: the relative field's (`relative_field`)."""
+    `states` (N, 12) under the obstacle field `field` of parameters
+    `params` (`fields.obstacle_field` or a baseline's, or its compiled
+    form). Vehicle k sees the scene's readings `scene[k]` and the others'
+    collision spheres (radius `radius`, within the sensor's `reach`;
+    `vehicle_readings`), flies toward `goals[k]` with the goal part
+    `attract` of `params` (`fields.goal_terms`, eq 21 in `modes[k]`, or
+    the baselines' `attraction_terms`).
+    `vehicle`, `attitude`: the vehicle and the attitude PD's parameters (the
+    scenario's `navigator`, every method's); parameters are
+    `compiled.record`s for the compiled form. K_P, K_D: eq 25's gains;
+    D_inv: eq 8 inverted; keep_right, own_pace, blend_speed: the relative
+    field's (`relative_field`). A lone vehicle
+    (N = 1) reads the static scene with its own velocity, as the
+    single-vehicle navigator does (`superposed`; `flight.chain.navigator_of`
+    takes the relative field only where something else moves)."""
     centres, velocities = states[:, POSITION], states[:, VELOCITY]
     for k in range(len(states)):
         x, mode, goal = states[k], modes[k], goals[k]
         p, v = x[POSITION], x[VELOCITY]
-        obstacle, u, flags = vehicle_readings(
-            p, scene[k], centres, velocities, radius, reach, k
-        )
-        F_o, terms = relative_field(
-            field,
-            x,
-            obstacle,
-            u,
-            keep_right * flags,
-            goal,
-            radius,
-            params,
-            own_pace,
-            blend_speed,
-        )
-        F_gc, F_v, F_pd = goal_terms(mode, p, v, goal, params, F_o, vehicle.mass)
+        if len(states) == 1:  # alone: the static scene's field (`superposed`)
+            obstacle = scene[k]
+            A, B = superposed(field, v, obstacle, goal - p, radius, params)
+            F_o, terms = A + B, np.concatenate((A, B))
+        else:
+            obstacle, u, flags = vehicle_readings(
+                p, scene[k], centres, velocities, radius, reach, k
+            )
+            F_o, terms = relative_field(
+                field,
+                x,
+                obstacle,
+                u,
+                keep_right * flags,
+                goal,
+                radius,
+                params,
+                own_pace,
+                blend_speed,
+            )
+        F_gc, F_v, F_pd = attract(mode, p, v, goal, params, F_o, vehicle.mass)
         F_n = F_o + F_gc + F_v + F_pd
-        thrust_torque, setpoint = attitude_command(x, F_n, vehicle, params, K_P, K_D)
+        thrust_torque, setpoint = attitude_command(x, F_n, vehicle, attitude, K_P, K_D)
         u_rotor, saturated = mix(thrust_torque, D_inv, vehicle.u_max)
         # The row in ROW's order.
         row, at = rows[k], 0

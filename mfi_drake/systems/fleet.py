@@ -8,10 +8,15 @@
 (`maths.compiled`), for every vehicle in one call: the per-call cost of a
 Python system is paid once for the fleet, not once per vehicle and system.
 Eq 21's modes are its discrete state, one a vehicle, updated at the start
-of every integrator step (`fleet_modes`), where the single-vehicle selector
-locates each switch with witness functions (a witness a vehicle would cost
-a Python call a vehicle and step).
+of every integrator step (`fleet_modes`). A lone vehicle (the compiled
+engine, `engine: compiled`) also has the single-vehicle selector's witness
+functions (`navigation.mode_witnesses`), so that the integrator locates
+each switch as the card's diagram does; a fleet has none (a witness a
+vehicle would cost a Python call a vehicle and step), its switches fall at
+the start of the step after the crossing.
 """
+
+import copy
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
@@ -23,11 +28,13 @@ from mfi_drake.maths.fields import MODE_PD
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
 from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
 from mfi_drake.systems.last_result import LastResult
+from mfi_drake.systems.navigation import mode_witnesses
 
 
 class FleetChain(LeafSystem):
-    """Every vehicle's sensor readings of the others, navigator, eq 21
-    selector, attitude PD and mixer (`maths.fleet.fleet_chain`).
+    """Every vehicle's sensor readings of the others, navigator, goal
+    attraction (eq 21's selector or the baselines'), attitude PD and mixer
+    (`maths.fleet.fleet_chain`).
 
     .. pydrake_system::
 
@@ -44,12 +51,21 @@ class FleetChain(LeafSystem):
     `scene`, else nothing); "rotor_forces": u of every vehicle (4 N); "rows":
     each vehicle's `maths.fleet.ROW`, what a single-vehicle diagram logs
     (ROW_SIZE N).
+
+    `field`, `attract`, `params`: the method's obstacle field and goal part
+    (functions of modules `maths.compiled` compiles: MFI's
+    `fields.obstacle_field` and eq 21's `fields.goal_terms`, or a
+    baseline's field and `baselines.attraction_terms`) and their
+    parameters; `attitude`: the attitude PD's (the scenario's `navigator`).
     """
 
     def __init__(
         self,
         goals,
-        params: NavigatorParams,
+        field,
+        attract,
+        params,
+        attitude: NavigatorParams,
         vehicle: Vehicle,
         sensor_radius: float,
         keep_right: float,
@@ -60,11 +76,13 @@ class FleetChain(LeafSystem):
         super().__init__()
         self._goals = np.array(goals, float)
         n = len(self._goals)
-        K_P, K_D = attitude_gains(vehicle, params)
+        K_P, K_D = attitude_gains(vehicle, attitude)
         # Copies of the parameters, in the compiled functions' form.
         self._constants = (
             compiled.record(params),
+            compiled.compiled_form(attract),
             compiled.record(vehicle),
+            compiled.record(attitude),
             K_P,
             K_D,
             np.linalg.inv(mixer_matrix(vehicle)),
@@ -79,7 +97,7 @@ class FleetChain(LeafSystem):
         # Compiled here, not within the flight: each function's entry for
         # the types every later call passes (`compiled.specialised`).
         functions = compiled.compiled(fleet)
-        self._field = compiled.compiled(fields).obstacle_field
+        self._field = compiled.compiled_form(field)
         at_rest = np.zeros((n, STATE_SIZE))
         self._no_scene = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
         self._chain = compiled.specialised(
@@ -92,14 +110,18 @@ class FleetChain(LeafSystem):
             *self._constants,
             np.zeros((n, fleet.ROW_SIZE)),
         )
-        self._next_modes = compiled.specialised(
-            functions.fleet_modes,
-            at_rest,
-            self._goals,
-            np.zeros(n),
-            self._params,
-            np.zeros(n),
-        )
+        # Eq 21's modes switch with MFI's selector only; the baselines'
+        # attraction stays in PD.
+        self._selects = attract is fields.goal_terms
+        if self._selects:
+            self._next_modes = compiled.specialised(
+                functions.fleet_modes,
+                at_rest,
+                self._goals,
+                np.zeros(n),
+                self._params,
+                np.zeros(n),
+            )
         self._states = self.DeclareVectorInputPort("states", STATE_SIZE * n)
         tickets = {self._states.ticket()}
         self._scene = None
@@ -108,8 +130,19 @@ class FleetChain(LeafSystem):
             tickets.add(self._scene.ticket())
         self._modes = self.DeclareDiscreteState(np.full(n, float(MODE_PD)))
         tickets.add(self.discrete_state_ticket(self._modes))
-        self.DeclareInitializationUnrestrictedUpdateEvent(self._update_modes)
-        self.DeclarePerStepUnrestrictedUpdateEvent(self._update_modes)
+        if self._selects:
+            self.DeclareInitializationUnrestrictedUpdateEvent(self._update_modes)
+            self.DeclarePerStepUnrestrictedUpdateEvent(self._update_modes)
+        self._witness = None
+        if n == 1 and self._selects:
+            self._witness = mode_witnesses(
+                self,
+                float,
+                self._states,
+                self._goals[0],
+                copy.deepcopy(params),
+                self._write_mode,
+            )
         self._last = LastResult()
         self.DeclareVectorOutputPort(
             "rotor_forces",
@@ -131,13 +164,26 @@ class FleetChain(LeafSystem):
         self._next_modes(states, self._goals, modes, self._params, new)
         state.get_mutable_discrete_state(self._modes).SetFromVector(new)
 
+    def _write_mode(self, state, mode: int) -> None:
+        """A lone vehicle's switch of eq 21 (its witness functions')."""
+        state.get_mutable_discrete_state(self._modes).SetAtIndex(0, float(mode))
+
+    def DoGetWitnessFunctions(self, context):
+        if self._witness is None:
+            return []
+        mode = context.get_discrete_state_vector().GetAtIndex(0)
+        return [self._witness[round(mode)]]
+
     def _rows(self, context) -> tuple[np.ndarray, np.ndarray]:
         """(rows (N, ROW_SIZE), the rotor forces (4 N)), computed once for
         both outputs."""
         # Copies: the compiled entries take writable C-contiguous arrays.
         states = np.array(self._states.Eval(context))
         scene = self._no_scene if self._scene is None else self._scene.Eval(context)
-        modes = np.array(context.get_discrete_state(self._modes).value())
+        # The only discrete state group: get_discrete_state_vector() costs a
+        # fifth of get_discrete_state(index) (11 µs a call, 13 % of a lone
+        # compiled flight).
+        modes = context.get_discrete_state_vector().CopyToVector()
         key = states.tobytes() + np.asarray(scene).tobytes() + modes.tobytes()
         return self._last(key, self._evaluate, states, scene, modes)
 

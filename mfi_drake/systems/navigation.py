@@ -157,6 +157,51 @@ def GfNavigator(params, goal, collision_radius: float):
     )
 
 
+def mode_witnesses(system, T, state, goal, params, write_mode) -> dict:
+    """Eq 21's two witness functions on `system` (a LeafSystem_[T] whose
+    input port `state` is the vehicle's 12-vector, flying to `goal` with
+    MFI's `params`), by the mode each watches from: PD → cruise where
+    `fields.cruise_guard` rises through zero, cruise → PD where
+    `fields.pd_guard` falls to zero. Each switch calls `write_mode(state,
+    mode)` on the discrete state. (`GoalAttractionSelector`'s; the compiled
+    engine's lone vehicle, `systems.fleet.FleetChain`, declares the same.)"""
+
+    def guard_of(guard):
+        def value(x):
+            p, v = position_velocity(x)
+            return guard(p, v, goal, params)
+
+        # The simulator evaluates the guard at both ends of every step.
+        last = LastResult(enabled=T is float)
+
+        def calc(context):
+            x = state.Eval(context)
+            return last(x.tobytes(), value, x)
+
+        return calc
+
+    def switch_to(mode):
+        def update(context, event, discrete):
+            write_mode(discrete, mode)
+
+        return UnrestrictedUpdateEvent_[T](update)
+
+    return {
+        fields.MODE_PD: system.MakeWitnessFunction(
+            "eq 21: PD -> cruise",
+            WitnessFunctionDirection.kNegativeThenNonNegative,
+            guard_of(fields.cruise_guard),
+            switch_to(fields.MODE_CRUISE),
+        ),
+        fields.MODE_CRUISE: system.MakeWitnessFunction(
+            "eq 21: cruise -> PD",
+            WitnessFunctionDirection.kPositiveThenNonPositive,
+            guard_of(fields.pd_guard),
+            switch_to(fields.MODE_PD),
+        ),
+    }
+
+
 @TemplateSystem.define("GoalAttractionSelector_")
 def GoalAttractionSelector_(T):
     class Impl(LeafSystem_[T]):
@@ -211,24 +256,9 @@ def GoalAttractionSelector_(T):
                 tickets.add(self.discrete_state_ticket(self._mode_index))
                 self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
                 self.DeclarePerStepUnrestrictedUpdateEvent(self._follow_jump)
-                to_cruise = UnrestrictedUpdateEvent_[T](
-                    self._switch_to(fields.MODE_CRUISE)
+                self._witness = mode_witnesses(
+                    self, T, self._state, self.goal, self.params, self._write_mode
                 )
-                to_pd = UnrestrictedUpdateEvent_[T](self._switch_to(fields.MODE_PD))
-                self._witness = {
-                    fields.MODE_PD: self.MakeWitnessFunction(
-                        "eq 21: PD -> cruise",
-                        WitnessFunctionDirection.kNegativeThenNonNegative,
-                        self._guard(fields.cruise_guard),
-                        to_cruise,
-                    ),
-                    fields.MODE_CRUISE: self.MakeWitnessFunction(
-                        "eq 21: cruise -> PD",
-                        WitnessFunctionDirection.kPositiveThenNonPositive,
-                        self._guard(fields.pd_guard),
-                        to_pd,
-                    ),
-                }
             self.DeclareVectorOutputPort(
                 "navigation_force",
                 3,
@@ -298,26 +328,6 @@ def GoalAttractionSelector_(T):
                 return EventStatus.DidNothing()
             self._write_mode(state, new)
             return EventStatus.Succeeded()
-
-        def _guard(self, guard):
-            def value(x):
-                p, v = position_velocity(x)
-                return guard(p, v, self.goal, self.params)
-
-            # The simulator evaluates the guard at both ends of every step.
-            last = LastResult(enabled=T is float)
-
-            def calc(context):
-                x = self._state.Eval(context)
-                return last(x.tobytes(), value, x)
-
-            return calc
-
-        def _switch_to(self, mode):
-            def update(context, event, state):
-                self._write_mode(state, mode)
-
-            return update
 
         def DoGetWitnessFunctions(self, context):
             if self.fixed_mode is not None:

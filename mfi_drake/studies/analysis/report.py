@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.scenario import Scenario, ScenarioError
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.analysis_diagram import (
     build_analysis_diagram,
@@ -35,7 +35,14 @@ def run_analysis(
     scenario: Scenario, roa_radii: tuple[float, ...] = (0.5, 2.0, 8.0, 32.0)
 ) -> tuple[dict, dict]:
     """Runs every analysis of this package on `scenario`: (the JSON-ready
-    report, the series for `app.analysis_figures.write_analysis_figures`)."""
+    report, the series for `app.analysis_figures.write_analysis_figures`).
+    Only on the systems engine: it linearises the card's diagram of
+    LeafSystems, which the compiled engine does not build."""
+    if scenario.engine != "systems":
+        raise ScenarioError(
+            f"{scenario.name}: engine = {scenario.engine!r}: analyze linearises "
+            "the diagram of systems (engine: systems)"
+        )
     begin = time.perf_counter()
     vehicle = VEHICLES[scenario.vehicle]
     report = {"scenario": scenario.name, "vehicle": vehicle.name}

@@ -1,0 +1,162 @@
+"""The scenario field `engine:` (docs/performance.md, "Engines"): a lone
+vehicle flown on the compiled engine (`flight.fleet.OneIntegratorFleet` with
+one vehicle) against the card's diagram of LeafSystems. Oracles: the
+systems engine itself (the step API `NavigationStep` at the same inputs,
+and whole flights), and the refusals' one line."""
+
+import dataclasses
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from mfi_drake.app.cli import main
+from mfi_drake.config.scenario import ScenarioError
+from mfi_drake.flight.fleet import OneIntegratorFleet, check_one_integrator
+from mfi_drake.flight.simulation import simulate
+from mfi_drake.flight.step import NavigationStep
+from mfi_drake.maths import compiled, fleet
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, STATE_SIZE
+from mfi_drake.world.validation import load_scenario
+
+from .conftest import ROOT, SCENARIOS
+
+WALL = f"{SCENARIOS}/planar_wall.yaml"
+COMPILED = ("mfi", "apf", "gf")  # the methods the compiled engine flies
+
+
+def on_compiled(scenario):
+    return dataclasses.replace(scenario, engine="compiled")
+
+
+@pytest.fixture(scope="module")
+def wall():
+    return on_compiled(load_scenario(WALL))
+
+
+@pytest.mark.parametrize("method", COMPILED)
+def test_the_compiled_chain_gives_the_systems_outputs_at_the_same_inputs(wall, method):
+    chain = OneIntegratorFleet(wall, method).chain
+    context = chain.CreateDefaultContext()
+    states = chain.GetInputPort("states").FixValue(context, np.zeros(STATE_SIZE))
+    scene = chain.GetInputPort("scene").FixValue(
+        context, np.zeros(OBSTACLE_SIGNAL_SIZE)
+    )
+    step = NavigationStep.from_scenario(wall, method)
+    at = fleet.row_slices()
+    rng = np.random.default_rng(40)
+    modes = set()
+    for _ in range(60):
+        x = np.zeros(STATE_SIZE)
+        x[0:3] = [rng.uniform(0.0, 12.0), rng.uniform(-2.0, 2.0), 1.5]
+        x[3:6] = rng.normal(0.0, 0.1, 3)
+        x[6:9] = rng.normal(0.0, 0.8, 3)
+        x[9:12] = rng.normal(0.0, 0.3, 3)
+        points = x[0:3] + rng.uniform(-2.0, 2.0, (rng.integers(0, 5), 3))
+        step.reset()  # eq 21's mode from scratch: the chain is given it
+        out = step.step(x, points)
+        states.GetMutableData().get_mutable_value().SetFromVector(x)
+        scene.GetMutableData().get_mutable_value().SetFromVector(out.obstacle)
+        context.SetDiscreteState(np.array([float(out.mode)]))
+        row = chain.GetOutputPort("rows").Eval(context)
+        terms = row[at["obstacle_force_terms"]]
+        close = dict(rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(terms[:3] + terms[3:], out.obstacle_force, **close)
+        np.testing.assert_allclose(
+            row[at["navigation_force"]], out.navigation_force, **close
+        )
+        np.testing.assert_allclose(
+            row[at["attitude_setpoint"]], out.attitude_setpoint, **close
+        )
+        np.testing.assert_allclose(
+            row[at["propeller_force"]], out.propeller_force, **close
+        )
+        assert row[at["mode"]][0] == out.mode
+        modes.add(out.mode)
+    # Both of eq 21's modes were compared (the baselines' is always PD).
+    assert modes == ({0, 1} if method.startswith("mfi") else {0})
+
+
+def test_a_lone_flight_is_the_same_on_both_engines(wall):
+    # Measured: bit-identical (the same steps, positions equal) on the
+    # paper's four scenes and ten random fields, with eq 21's witness
+    # functions on the compiled vehicle too.
+    systems = simulate(dataclasses.replace(wall, engine="systems"), until_settled=True)
+    flown = simulate(wall, until_settled=True)
+    assert (systems.metrics["engine"], flown.metrics["engine"]) == (
+        "systems",
+        "compiled",
+    )
+    assert flown.metrics["outcome"] == systems.metrics["outcome"] == "success"
+    np.testing.assert_array_equal(flown.times, systems.times)
+    assert np.abs(flown.positions - systems.positions).max() <= 1e-6
+
+
+def test_a_new_process_loads_the_compiled_chain_from_the_cache(wall):
+    OneIntegratorFleet(wall, "mfi")  # compiled here, or loaded: on disk now
+    script = (
+        "import dataclasses\n"
+        "from mfi_drake.flight.fleet import OneIntegratorFleet\n"
+        "from mfi_drake.maths import compiled, fleet\n"
+        "from mfi_drake.world.validation import load_scenario\n"
+        f"s = load_scenario({WALL!r})\n"
+        "OneIntegratorFleet(dataclasses.replace(s, engine='compiled'), 'mfi')\n"
+        "stats = compiled.compiled(fleet).fleet_chain.stats\n"
+        "print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    hits, misses = map(int, done.stdout.split()[-2:])
+    assert (hits, misses) == (1, 0)
+
+
+def test_the_cache_falls_back_to_the_user_directory_where_the_package_is_read_only(
+    monkeypatch,
+):
+    from numba.core import caching, config
+
+    def read_only(self):
+        raise OSError("read-only file system")
+
+    monkeypatch.setattr(config, "CACHE_DIR", "")
+    monkeypatch.setattr(caching.InTreeCacheLocator, "ensure_cache_path", read_only)
+    function = compiled.compiled(fleet).fleet_chain.py_func
+    locator = compiled._cache_class()(function)._impl.locator
+    assert isinstance(locator, caching.UserWideCacheLocator)
+    assert locator.get_source_stamp() == compiled._sources_stamp()
+
+
+@pytest.mark.parametrize(
+    "argv, named",
+    [
+        (["run", WALL, "--set", "engine: fast"], "engine = 'fast': must be one of"),
+        (
+            ["run", WALL, "--method", "mfi-nc", "--set", "engine: compiled"],
+            "engine = 'compiled': method mfi-nc",
+        ),
+        (
+            ["run", f"{SCENARIOS}/swarm_corridor.yaml", "--set", "engine: compiled"],
+            "a fleet flies compiled on one integrator",
+        ),
+        (["analyze", WALL, "--set", "engine: compiled"], "analyze linearises"),
+    ],
+)
+def test_what_the_compiled_engine_cannot_fly_is_refused_by_name(
+    tmp_path, capsys, argv, named
+):
+    assert main([*argv, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert named in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_the_engine_refusal_names_the_scenario_and_the_other_engine(wall):
+    cameras = load_scenario(WALL, [("cameras", "sensor: !DepthCamera {}")])
+    with pytest.raises(ScenarioError, match=r"sensor: .*\(engine: systems flies it\)"):
+        check_one_integrator(on_compiled(cameras), ["mfi"])
