@@ -82,6 +82,7 @@ class EscapeParams:
     leave_margin: float = 0.3  # m, leave only this much nearer than d_hit
     loop_radius: float = 1.0  # m, back this near H: a loop is closed
     revisit_radius: float = 1.5  # m, a trap this near a hit point resumes it
+    corner_brake: bool = True  # eq 19's v_d limited in a concave corner
 
 
 def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
@@ -130,6 +131,52 @@ def followed_point(
     kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))
     switch = nearest[0] < near or nearest[0] < kept[0] - SWITCH
     return nearest[1] if switch else kept[1]
+
+
+# Two surfaces whose normals are further apart than 135° are the two sides of
+# a gap (a door, a corridor), which the vehicle passes along; nearer, they
+# form a concave corner, where turning away from one turns toward the other.
+GAP_COSINE = -math.sqrt(0.5)
+
+
+def corner_speed(
+    obstacle, v: np.ndarray, collision_radius: float, r_b: float, rate: float
+) -> float:
+    """The speed setpoint of eq 19 that lets eq 19 stop the vehicle before a
+    surface of a concave corner (math.inf where no limit applies).
+
+    MFI's obstacle terms (eq 12, 14) are ⟂ v: they turn, they do not brake.
+    Against one surface a turn of at most 90° leaves it, but in a concave
+    corner (two or more seen surfaces within eq 15's range r_b, their
+    normals not opposed: `GAP_COSINE`) every tangent of one surface leads
+    into another, and in the corner of two walls and a floor none is left:
+    the vehicle must stop and turn back, and eq 19 is the only brake. With
+    eq 19 alone, the closing speed s = v·n of a surface at clearance r
+    obeys ṡ = −k (s − s_d), k = K_v/m, ṙ = −s; the setpoint s_d = (k/4) r
+    makes r̈ + k ṙ + (k²/4) r = 0 critically damped: r falls to zero without
+    crossing it. So |v| is held below (k/4) r / (l_a·n) for each surface the
+    vehicle approaches, `rate` = k/4 [1/s]."""
+    seen = [
+        r_o
+        for r_o, s in readings(obstacle)
+        if s > 0.5 and np.linalg.norm(r_o) - collision_radius < r_b
+    ]
+    normals = [r_o / np.linalg.norm(r_o) for r_o in seen]
+    corner = any(
+        normals[i] @ normals[j] > GAP_COSINE
+        for i in range(len(normals))
+        for j in range(i)
+    )
+    speed = float(np.linalg.norm(v))
+    if not corner or speed < 1e-9:
+        return math.inf
+    limit = math.inf
+    for r_o, n in zip(seen, normals, strict=True):
+        closing = (v @ n) / speed  # l_a·n
+        if closing > 0.0:
+            r = max(0.0, float(np.linalg.norm(r_o)) - collision_radius)
+            limit = min(limit, rate * r / closing)
+    return limit
 
 
 def goal_hidden(obstacle, r_g: np.ndarray) -> bool:

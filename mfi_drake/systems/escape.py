@@ -60,6 +60,7 @@ class EscapeNavigator(LeafSystem):
         params,
         goal,
         collision_radius: float,
+        mass: float,
         rule: escape.EscapeParams = DEFAULT_RULE,
     ):
         super().__init__()
@@ -67,6 +68,7 @@ class EscapeNavigator(LeafSystem):
         self.rule = rule
         self.goal = np.array(goal, dtype=float)
         self.collision_radius = float(collision_radius)
+        self.mass = float(mass)
         self._last = LastResult()
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
@@ -143,6 +145,17 @@ class EscapeNavigator(LeafSystem):
         target = escape.subgoal(
             memory, p, obstacle, self.goal, self.collision_radius, self.rule
         )
+        v_d = self.params.v_d
+        if target is not self.goal:
+            v_d = self.rule.follow_speed
+        if self.rule.corner_brake:
+            rate = self.params.K_v / (4.0 * self.mass)
+            v_d = min(
+                v_d,
+                escape.corner_speed(
+                    obstacle, v, self.collision_radius, self.params.r_b, rate
+                ),
+            )
         A, B = fields.superposed(
             fields.obstacle_field,
             v,
@@ -151,17 +164,19 @@ class EscapeNavigator(LeafSystem):
             self.collision_radius,
             self.params,
         )
+        if v_d < self.params.v_d:
+            # Eq 19 at the lower speed setpoint instead of v_d.
+            B = (
+                B
+                + fields.speed_control_field(v, self.params.K_v, v_d)
+                - fields.speed_control_field(v, self.params.K_v, self.params.v_d)
+            )
         if target is not self.goal:
             smooth = self.params.smooth_goal_turn
             K = self.params.K_omega
-            # Eq 19 at the following speed instead of v_d.
-            slower = fields.speed_control_field(
-                v, self.params.K_v, self.rule.follow_speed
-            ) - fields.speed_control_field(v, self.params.K_v, self.params.v_d)
             B = (
                 B
                 + fields.goal_attraction_field(v, target - p, K, smooth)
                 - fields.goal_attraction_field(v, self.goal - p, K, smooth)
-                + slower
             )
         return A, B, A + B, target
