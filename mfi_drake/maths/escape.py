@@ -69,9 +69,23 @@ E_Z = np.array([0.0, 0.0, 1.0])
 SWITCH = 0.25  # m, see followed_point
 
 
-@dataclass(frozen=True)
+@dataclass
 class EscapeParams:
-    """The escape rule's constants (see the module docstring)."""
+    """The escape rule's constants (see the module docstring): a scenario's
+    `escape:` section, each overridable by `--set escape.NAME=VALUE`; every
+    number must be finite and > 0.
+
+    - stall_time [s], progress [m]: a trap is no gain of `progress` in the
+      best distance to the goal for `stall_time`.
+    - follow_distance [m] (r_f), hug [1/m] (κ), lookahead [m]: the subgoal
+      lies `lookahead` ahead along t + κ (r − r_f) n.
+    - follow_speed [m/s]: eq 19's v_d while following.
+    - leave_margin [m]: leave only this much nearer the goal than at H.
+    - loop_radius [m]: back this near H after 2·loop_radius away closes a
+      loop; revisit_radius [m]: a trap this near a hit point resumes it.
+    - corner_brake: eq 19's v_d limited in a concave corner
+      (`corner_speed`), also toward the goal.
+    """
 
     stall_time: float = 15.0  # s without progress: trapped at a surface
     progress: float = 0.5  # m, the least gain in d_best that is progress

@@ -65,7 +65,7 @@ class EscapeNavigator(LeafSystem):
     ):
         super().__init__()
         self.params = copy.deepcopy(params)
-        self.rule = rule
+        self.rule = copy.deepcopy(rule)
         self.goal = np.array(goal, dtype=float)
         self.collision_radius = float(collision_radius)
         self.mass = float(mass)
