@@ -153,23 +153,37 @@ def followed_point(
 GAP_COSINE = -math.sqrt(0.5)
 
 
+def corner_rate(k: float, v_d: float, r_b: float) -> float:
+    """The gain c [1/s] of `corner_speed`'s closing-speed setpoint c·r: the
+    largest for which eq 19 alone stops a vehicle that enters the corner's
+    range r_b closing at v_d before it reaches the surface (k = K_v/m).
+
+    With eq 19 as the only brake the closing speed s = v·n obeys
+    ṡ = −k (s − c r), ṙ = −s: r̈ + k ṙ + k c r = 0, roots λ = (−k ± √(k² −
+    4kc))/2. From r(0) = r_b, ṙ(0) = −v_d, r stays > 0 exactly when
+    v_d ≤ |λ_fast| r_b (c ≤ k/4, real roots), so c = (k² − (2 v_d/r_b −
+    k)²)/(4k), k/4 (critically damped) where that exceeds k/4, 0 where no
+    c can (v_d > k r_b: the full brake stops it within v_d/k only)."""
+    excess = 2.0 * v_d / r_b - k
+    if excess <= 0.0:
+        return k / 4.0
+    return max(0.0, (k * k - excess * excess) / (4.0 * k))
+
+
 def corner_speed(
     obstacle, v: np.ndarray, collision_radius: float, r_b: float, rate: float
 ) -> float:
-    """The speed setpoint of eq 19 that lets eq 19 stop the vehicle before a
-    surface of a concave corner (math.inf where no limit applies).
+    """The speed setpoint of eq 19 in a concave corner (math.inf where no
+    limit applies): |v| ≤ rate · r / (l_a·n) for each surface the vehicle
+    approaches (l_a·n > 0) at clearance r, so that its closing speed
+    follows the setpoint rate · r (`corner_rate`).
 
     MFI's obstacle terms (eq 12, 14) are ⟂ v: they turn, they do not brake.
     Against one surface a turn of at most 90° leaves it, but in a concave
     corner (two or more seen surfaces within eq 15's range r_b, their
     normals not opposed: `GAP_COSINE`) every tangent of one surface leads
     into another, and in the corner of two walls and a floor none is left:
-    the vehicle must stop and turn back, and eq 19 is the only brake. With
-    eq 19 alone, the closing speed s = v·n of a surface at clearance r
-    obeys ṡ = −k (s − s_d), k = K_v/m, ṙ = −s; the setpoint s_d = (k/4) r
-    makes r̈ + k ṙ + (k²/4) r = 0 critically damped: r falls to zero without
-    crossing it. So |v| is held below (k/4) r / (l_a·n) for each surface the
-    vehicle approaches, `rate` = k/4 [1/s]."""
+    the vehicle must stop and turn back, and eq 19 is the only brake."""
     seen = [
         r_o
         for r_o, s in readings(obstacle)

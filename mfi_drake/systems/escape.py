@@ -32,6 +32,7 @@ from mfi_drake.maths.layout import (
     position_velocity,
 )
 from mfi_drake.systems.last_result import LastResult
+from mfi_drake.systems.navigation import declare_obstacle_force_ports
 
 DEFAULT_RULE = escape.EscapeParams()
 TRAPPED_MESSAGE = "trapped: the escape rule has run out of options"
@@ -69,6 +70,9 @@ class EscapeNavigator(LeafSystem):
         self.goal = np.array(goal, dtype=float)
         self.collision_radius = float(collision_radius)
         self.mass = float(mass)
+        # Eq 19's brake rate k = K_v/m gives the corner's setpoint gain.
+        k = self.params.K_v / self.mass
+        self._rate = escape.corner_rate(k, self.params.v_d, self.params.r_b)
         self._last = LastResult()
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
@@ -80,20 +84,7 @@ class EscapeNavigator(LeafSystem):
         }
         self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
         self.DeclarePerStepUnrestrictedUpdateEvent(self._update)
-        self.DeclareVectorOutputPort(
-            "obstacle_force",
-            3,
-            lambda context, out: out.SetFromVector(self._terms(context)[2]),
-            prerequisites_of_calc=tickets,
-        )
-        self.DeclareVectorOutputPort(
-            "obstacle_force_terms",
-            6,
-            lambda context, out: out.SetFromVector(
-                np.concatenate(self._terms(context)[:2])
-            ),
-            prerequisites_of_calc=tickets,
-        )
+        declare_obstacle_force_ports(self, self._terms, tickets)
         self.DeclareVectorOutputPort(
             "escape",
             4,
@@ -149,11 +140,10 @@ class EscapeNavigator(LeafSystem):
         if target is not self.goal:
             v_d = self.rule.follow_speed
         if self.rule.corner_brake:
-            rate = self.params.K_v / (4.0 * self.mass)
             v_d = min(
                 v_d,
                 escape.corner_speed(
-                    obstacle, v, self.collision_radius, self.params.r_b, rate
+                    obstacle, v, self.collision_radius, self.params.r_b, self._rate
                 ),
             )
         A, B = fields.superposed(
