@@ -67,6 +67,10 @@ MEMORY_SIZE = RING + 4 * HITS
 
 E_Z = np.array([0.0, 0.0, 1.0])
 SWITCH = 0.25  # m, see followed_point
+# Two surfaces whose normals are further apart than 135° are the two sides of
+# a gap (a door, a corridor), which the vehicle passes along; nearer, they
+# form a concave corner, where turning away from one turns toward the other.
+GAP_COSINE = -math.sqrt(0.5)
 
 
 @dataclass
@@ -128,9 +132,10 @@ def followed_point(
     seen readings whose direction is not within 45° of ±a (walls, not the
     ground or a ceiling, for a = ±e_z), the one whose point lies nearest the
     followed point remembered, unless the nearest is closer than `near`
-    (the hugged distance of centre) or `SWITCH` nearer than that one: a
-    wall ahead takes over at a concave corner, and at a doorway the jamb
-    being rounded is kept, not the far one. The nearest where none is
+    (the hugged distance of centre) or `SWITCH` nearer than that one, and
+    not opposite it (`GAP_COSINE`): a wall ahead takes over at a concave
+    corner, and at a doorway the jamb being rounded is kept, not the far
+    one. The nearest where none is
     remembered; None if there is no candidate."""
     points = []
     for r_o, seen in readings(obstacle):
@@ -143,14 +148,11 @@ def followed_point(
     if not memory[SURFACE_SEEN]:
         return nearest[1]
     kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))
-    switch = nearest[0] < near or nearest[0] < kept[0] - SWITCH
-    return nearest[1] if switch else kept[1]
-
-
-# Two surfaces whose normals are further apart than 135° are the two sides of
-# a gap (a door, a corridor), which the vehicle passes along; nearer, they
-# form a concave corner, where turning away from one turns toward the other.
-GAP_COSINE = -math.sqrt(0.5)
+    closer = nearest[0] < near or nearest[0] < kept[0] - SWITCH
+    # Opposed normals are the two sides of a gap: the far jamb of a door
+    # the vehicle is rounding the near one into is not a wall ahead.
+    facing = (nearest[1] - p) @ (kept[1] - p) / (nearest[0] * kept[0])
+    return nearest[1] if closer and facing > GAP_COSINE else kept[1]
 
 
 def corner_rate(k: float, v_d: float, r_b: float) -> float:
@@ -322,10 +324,12 @@ def subgoal(
         return goal
     r = distance - collision_radius
     pull = max(-1.0, min(1.0, params.hug * (r - params.follow_distance)))
-    u = t / size + pull * n
-    target = p + params.lookahead * u / np.linalg.norm(u)
-    # In the plane ⟂ a through the goal: circulating about ±e_z the vehicle
-    # keeps to the goal's height; about a horizontal axis, to the vertical
-    # plane through H and the goal (Bug algorithms' plane through the goal).
+    # The plane ⟂ a through the goal is hugged as the surface is, with the
+    # same κ: circulating about ±e_z the vehicle keeps to the goal's height;
+    # about a horizontal axis, to the vertical plane through H and the goal
+    # (Bug algorithms' plane through the goal). Off it, a lintel or a ceiling
+    # can stand in for the wall it follows and hide a door.
     unit = a / np.linalg.norm(a)
-    return target - ((target - goal) @ unit) * unit
+    level = max(-1.0, min(1.0, params.hug * ((goal - p) @ unit)))
+    u = t / size + pull * n + level * unit
+    return p + params.lookahead * u / np.linalg.norm(u)
