@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mfi_drake.config import scenario as sc
-from mfi_drake.config.scenario_yaml import parse_scenario
+from mfi_drake.config.scenario_yaml import layer, parse_scenario, read_override
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.methods import METHODS
@@ -268,3 +268,18 @@ def test_two_flights_are_equal():
     first, second = simulate(world, "mfi-nc"), simulate(world, "mfi-nc")
     assert np.array_equal(first.log["state"], second.log["state"])
     assert np.array_equal(first.times, second.times)
+
+
+@pytest.mark.parametrize(("kind", "index"), [("cup", 0), ("room_entry", 1)])
+def test_mfi_nc_flies_with_the_depth_camera_rig(kind, index):
+    """The escape reads the "obstacle" readings whatever sensor makes them:
+    with the rig of three depth cameras (scenarios/sensors/rig3.yaml) they
+    come from the rig's own memory of points, which holds a surface out of
+    view (cup 0 opens toward the start: the escape rounds it)."""
+    rig3 = read_override(os.path.join(SCENARIOS, "sensors", "rig3.yaml"))
+    world = layer(nonconvex_world(kind, 0, index), rig3[1], rig3[0])
+    assert isinstance(world.sensor, sc.DepthCameraRig)
+    metrics = simulate(world, "mfi-nc", until_settled=True).metrics
+    assert metrics["outcome"] == "success", metrics["final_error"]
+    assert metrics["min_clearance"] > 0.0
+    assert metrics["convergence_time"] < world.duration
