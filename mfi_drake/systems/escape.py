@@ -4,10 +4,10 @@ memory it builds in flight, for method "mfi-nc" (docs/nonconvex.md).
 The memory is the system's one discrete state group (`escape.MEMORY_SIZE`
 floats), set at initialization and updated by a per-step unrestricted
 update event: a flight is deterministic and replayable, and the event
-forces no step boundaries, so until the first trap the flight is MFI's
-step for step. Once the memory says TRAPPED the event ends the flight
-(`EventStatus.ReachedTermination`, message `TRAPPED_MESSAGE`): the goal
-cannot be reached.
+forces no step boundaries, so until the first trap (or concave corner,
+below) the flight is MFI's step for step. Once the memory says TRAPPED
+the event ends the flight (`EventStatus.ReachedTermination`, message
+`TRAPPED_MESSAGE`): the goal cannot be reached.
 
 Method "mfi-nc" pairs it with MFI's `GoalAttractionSelector` aimed at the
 goal (eq 16–21 unchanged, the terminal PD included). While the memory
@@ -16,7 +16,11 @@ eq 11–15 with r_g = ĝ − p, and "obstacle_force" adds the redirection
 F_gc(ĝ) − F_gc(g) (eq 16–18), which turns the selector's cruise pull
 toward the goal into one toward ĝ (repair (g)'s drag then sees F_o +
 F_gc(ĝ), the turning force flown). The redirection is ⟂ v, as F_gc is:
-it does no work. "obstacle_force_terms" holds [F, F_a + redirection].
+it does no work. Eq 19's setpoint is the rule's follow_speed while
+following and, in any phase, at most `escape.corner_speed` in a concave
+corner (the corner brake, `EscapeParams.corner_brake`): "obstacle_force"
+adds F_v(setpoint) − F_v(v_d), which brakes along −l_a.
+"obstacle_force_terms" holds [F, F_a + redirection + brake].
 Float only: `analyze` linearises the memoryless chain (`MfiNavigator`).
 """
 
