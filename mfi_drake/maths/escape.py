@@ -19,13 +19,17 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   the obstacle (the picture of MFI; Ataka et al., Front. Robot. AI 9, 2022,
   doi 10.3389/frobt.2022.834177, keep a current's direction to get round
   concave obstacles): its subgoal lies `lookahead` ahead along
-  u = t + κ (r − r_f) n, t = a × n / |a × n|, where n points to the followed
-  surface's closest point (the nearest reading not within 45° of ±a, else
-  the last one remembered) at clearance r, so that it hugs the surface at
-  r_f, moved into the plane ⟂ a through the goal (the goal's height for
-  ±e_z). The first axis is ±e_z, the sign that continues the vehicle's motion
-  (it goes round horizontally the way it was going); then −that; then the
-  horizontal axis ⟂ the goal direction, both signs (over and under).
+  u = t + κ (r − r_f) n + κ ((p_g − p)·â) â, t = a × n / |a × n|, where n
+  points to the followed surface's closest point (the nearest reading not
+  within 45° of ±a, else the last one remembered) at clearance r, so that
+  it hugs the surface at r_f and the plane ⟂ a through the goal (the
+  goal's height for ±e_z), each pull clipped at 1. The first axis is
+  ±e_z, the sign that continues the vehicle's motion (it goes round
+  horizontally the way it was going); then −that; then the horizontal
+  axis ⟂ the goal direction, both signs (over and under).
+- Corner brake (any phase): in a concave corner eq 19's setpoint keeps
+  the closing speed toward each surface below c·r (`corner_speed`,
+  `corner_rate`).
 - Leave: |r_g| < d_hit − `leave_margin` and no seen surface's tangent plane
   hides the goal (3DBug's leaving condition, with the tangent plane at the
   closest point as the local range data).
@@ -96,7 +100,9 @@ class EscapeParams:
     follow_distance: float = 0.45  # m, r_f: the clearance hugged while following
     hug: float = 1.0  # 1/m, κ: how hard the subgoal pulls toward r_f
     lookahead: float = 3.0  # m, the subgoal's distance ahead
-    follow_speed: float = 0.5  # m/s, eq 19's v_d while following
+    # m/s, eq 19's v_d while following: MFI's cruise speed; the corner brake
+    # (`corner_speed`) slows it where a turn alone cannot keep it clear.
+    follow_speed: float = 1.0
     leave_margin: float = 0.3  # m, leave only this much nearer than d_hit
     loop_radius: float = 1.0  # m, back this near H: a loop is closed
     revisit_radius: float = 1.5  # m, a trap this near a hit point resumes it
