@@ -165,6 +165,31 @@ def test_the_corner_rate_is_the_largest_that_stops_before_the_surface(k, v_d, r_
     assert escape.corner_rate(k, 2.0 * k * r_b, r_b) == 0.0
 
 
+def test_a_wall_ahead_takes_over_and_a_far_jamb_does_not():
+    """Following the surface whose closest point is remembered at +x: a wall
+    ahead (+y, normals 90° apart, a concave corner) nearer than R + r_f
+    takes over; a far jamb across a door (−x side, normals 120° apart: the
+    vehicle lies between them) as near does not; nothing nearer than R +
+    r_f and not SWITCH nearer: the remembered surface is kept."""
+    p = np.zeros(3)
+    near = RADIUS + RULE.follow_distance
+    memory = escape.initial_memory(p, GOAL)
+    memory[escape.SURFACE], memory[escape.SURFACE_SEEN] = [0.7, 0.0, 0.0], 1.0
+    kept = np.array([0.7, 0.0, 0.0])
+    close = near - 0.05
+
+    def followed(other):
+        readings = obstacle_signal([other, kept])
+        return escape.followed_point(memory, readings, p, escape.E_Z, near)
+
+    ahead = np.array([0.0, close, 0.0])
+    assert followed(ahead) == pytest.approx(ahead)
+    across = close * np.array([np.cos(np.radians(120)), np.sin(np.radians(120)), 0])
+    assert followed(across) == pytest.approx(kept)
+    farther = np.array([0.0, near + 0.01, 0.0])
+    assert followed(farther) == pytest.approx(kept)
+
+
 def test_corner_speed_by_hand():
     """Two walls 0.5 m away along +x and +y (a concave corner), the vehicle
     heading along their bisector: |v| ≤ rate · r / (l_a·n) with r = 0.5 − R

@@ -139,9 +139,9 @@ def followed_point(
     ground or a ceiling, for a = ±e_z), the one whose point lies nearest the
     followed point remembered, unless the nearest is closer than `near`
     (the hugged distance of centre) or `SWITCH` nearer than that one, and
-    not opposite it (`GAP_COSINE`): a wall ahead takes over at a concave
-    corner, and at a doorway the jamb being rounded is kept, not the far
-    one. The nearest where none is
+    the vehicle is not between the two (normals more than 90° apart): a
+    wall ahead takes over at a concave corner, and at a doorway the jamb
+    being rounded is kept, not the far one. The nearest where none is
     remembered; None if there is no candidate."""
     points = []
     for r_o, seen in readings(obstacle):
@@ -155,10 +155,11 @@ def followed_point(
         return nearest[1]
     kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))
     closer = nearest[0] < near or nearest[0] < kept[0] - SWITCH
-    # Opposed normals are the two sides of a gap: the far jamb of a door
-    # the vehicle is rounding the near one into is not a wall ahead.
+    # Normals more than 90° apart put the vehicle between the two surfaces:
+    # the far jamb of a door it is rounding the near one into, not a wall
+    # ahead at a concave corner (a room's right angle: 90° up to rounding).
     facing = (nearest[1] - p) @ (kept[1] - p) / (nearest[0] * kept[0])
-    return nearest[1] if closer and facing > GAP_COSINE else kept[1]
+    return nearest[1] if closer and facing > -1e-9 else kept[1]
 
 
 def corner_rate(k: float, v_d: float, r_b: float) -> float:
