@@ -37,6 +37,7 @@ from mfi_drake.config.parameters import (
     validate_params,
 )
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.maths.escape import EscapeParams
 from mfi_drake.maths.point_maps import MAP_VOXEL
 
 FLEET_INTEGRATIONS = ("separate", "one")
@@ -246,6 +247,8 @@ class Scenario:
     )
     apf: ApfParams = field(default_factory=ApfParams)  # the APF baseline's gains
     gf: GfParams = field(default_factory=GfParams)  # the GF baseline's gains
+    # The escape rule of method "mfi-nc" (docs/nonconvex.md), with MFI's gains.
+    escape: EscapeParams = field(default_factory=EscapeParams)
     # Keyword arguments of a user's field function (MODULE:NAME methods).
     field_gains: dict[str, float] = field(default_factory=dict)
     faults: Faults = field(default_factory=Faults)  # all off by default
@@ -444,6 +447,8 @@ def check_scenario(scenario: Scenario, where: str) -> None:
         params = getattr(scenario, key)
         for name, value, reason in field_problems(params) or baseline_problems(params):
             fail(where, f"{key}.{name}", value, reason)
+    for name, value, reason in field_problems(scenario.escape):
+        fail(where, f"escape.{name}", value, reason)
     for name, value in scenario.field_gains.items():
         if not _is_number(value) or not math.isfinite(value):
             fail(where, f"field_gains.{name}", value, "must be a finite number")

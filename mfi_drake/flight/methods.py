@@ -160,7 +160,7 @@ METHODS["mfi-nc"] = replace(
     colour="darkgoldenrod",
     in_defaults=False,  # a first stage (docs/nonconvex.md), not yet tuned
     navigator=lambda s, vehicle: EscapeNavigator(
-        s.navigator, _goal(s), vehicle.collision_radius
+        s.navigator, _goal(s), vehicle.collision_radius, vehicle.mass, s.escape
     ),
 )
 # The methods flown where none is named.

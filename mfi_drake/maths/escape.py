@@ -19,13 +19,17 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   the obstacle (the picture of MFI; Ataka et al., Front. Robot. AI 9, 2022,
   doi 10.3389/frobt.2022.834177, keep a current's direction to get round
   concave obstacles): its subgoal lies `lookahead` ahead along
-  u = t + κ (r − r_f) n, t = a × n / |a × n|, where n points to the followed
-  surface's closest point (the nearest reading not within 45° of ±a, else
-  the last one remembered) at clearance r, so that it hugs the surface at
-  r_f, moved into the plane ⟂ a through the goal (the goal's height for
-  ±e_z). The first axis is ±e_z, the sign that continues the vehicle's motion
-  (it goes round horizontally the way it was going); then −that; then the
-  horizontal axis ⟂ the goal direction, both signs (over and under).
+  u = t + κ (r − r_f) n + κ ((p_g − p)·â) â, t = a × n / |a × n|, where n
+  points to the followed surface's closest point (the nearest reading not
+  within 45° of ±a, else the last one remembered) at clearance r, so that
+  it hugs the surface at r_f and the plane ⟂ a through the goal (the
+  goal's height for ±e_z), each pull clipped at 1. The first axis is
+  ±e_z, the sign that continues the vehicle's motion (it goes round
+  horizontally the way it was going); then −that; then the horizontal
+  axis ⟂ the goal direction, both signs (over and under).
+- Corner brake (any phase): in a concave corner eq 19's setpoint keeps
+  the closing speed toward each surface below c·r (`corner_speed`,
+  `corner_rate`).
 - Leave: |r_g| < d_hit − `leave_margin` and no seen surface's tangent plane
   hides the goal (3DBug's leaving condition, with the tangent plane at the
   closest point as the local range data).
@@ -67,21 +71,42 @@ MEMORY_SIZE = RING + 4 * HITS
 
 E_Z = np.array([0.0, 0.0, 1.0])
 SWITCH = 0.25  # m, see followed_point
+# Two surfaces whose normals are further apart than 135° are the two sides of
+# a gap (a door, a corridor), which the vehicle passes along; nearer, they
+# form a concave corner, where turning away from one turns toward the other.
+GAP_COSINE = -math.sqrt(0.5)
 
 
-@dataclass(frozen=True)
+@dataclass
 class EscapeParams:
-    """The escape rule's constants (see the module docstring)."""
+    """The escape rule's constants (see the module docstring): a scenario's
+    `escape:` section, each overridable by `--set escape.NAME=VALUE`; every
+    number must be finite and > 0.
+
+    - stall_time [s], progress [m]: a trap is no gain of `progress` in the
+      best distance to the goal for `stall_time`.
+    - follow_distance [m] (r_f), hug [1/m] (κ), lookahead [m]: the subgoal
+      lies `lookahead` ahead along t + κ (r − r_f) n.
+    - follow_speed [m/s]: eq 19's v_d while following.
+    - leave_margin [m]: leave only this much nearer the goal than at H.
+    - loop_radius [m]: back this near H after 2·loop_radius away closes a
+      loop; revisit_radius [m]: a trap this near a hit point resumes it.
+    - corner_brake: eq 19's v_d limited in a concave corner
+      (`corner_speed`), also toward the goal.
+    """
 
     stall_time: float = 15.0  # s without progress: trapped at a surface
     progress: float = 0.5  # m, the least gain in d_best that is progress
     follow_distance: float = 0.45  # m, r_f: the clearance hugged while following
     hug: float = 1.0  # 1/m, κ: how hard the subgoal pulls toward r_f
     lookahead: float = 3.0  # m, the subgoal's distance ahead
-    follow_speed: float = 0.5  # m/s, eq 19's v_d while following
+    # m/s, eq 19's v_d while following: MFI's cruise speed; the corner brake
+    # (`corner_speed`) slows it where a turn alone cannot keep it clear.
+    follow_speed: float = 1.0
     leave_margin: float = 0.3  # m, leave only this much nearer than d_hit
     loop_radius: float = 1.0  # m, back this near H: a loop is closed
     revisit_radius: float = 1.5  # m, a trap this near a hit point resumes it
+    corner_brake: bool = True  # eq 19's v_d limited in a concave corner
 
 
 def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
@@ -113,7 +138,8 @@ def followed_point(
     seen readings whose direction is not within 45° of ±a (walls, not the
     ground or a ceiling, for a = ±e_z), the one whose point lies nearest the
     followed point remembered, unless the nearest is closer than `near`
-    (the hugged distance of centre) or `SWITCH` nearer than that one: a
+    (the hugged distance of centre) or `SWITCH` nearer than that one, and
+    the vehicle is not between the two (normals more than 90° apart): a
     wall ahead takes over at a concave corner, and at a doorway the jamb
     being rounded is kept, not the far one. The nearest where none is
     remembered; None if there is no candidate."""
@@ -128,8 +154,66 @@ def followed_point(
     if not memory[SURFACE_SEEN]:
         return nearest[1]
     kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))
-    switch = nearest[0] < near or nearest[0] < kept[0] - SWITCH
-    return nearest[1] if switch else kept[1]
+    closer = nearest[0] < near or nearest[0] < kept[0] - SWITCH
+    # Normals more than 90° apart put the vehicle between the two surfaces:
+    # the far jamb of a door it is rounding the near one into, not a wall
+    # ahead at a concave corner (a room's right angle: 90° up to rounding).
+    facing = (nearest[1] - p) @ (kept[1] - p) / (nearest[0] * kept[0])
+    return nearest[1] if closer and facing > -1e-9 else kept[1]
+
+
+def corner_rate(k: float, v_d: float, r_b: float) -> float:
+    """The gain c [1/s] of `corner_speed`'s closing-speed setpoint c·r: the
+    largest for which eq 19 alone stops a vehicle that enters the corner's
+    range r_b closing at v_d before it reaches the surface (k = K_v/m).
+
+    With eq 19 as the only brake the closing speed s = v·n obeys
+    ṡ = −k (s − c r), ṙ = −s: r̈ + k ṙ + k c r = 0, roots λ = (−k ± √(k² −
+    4kc))/2. From r(0) = r_b, ṙ(0) = −v_d, r stays > 0 exactly when
+    v_d ≤ |λ_fast| r_b (c ≤ k/4, real roots), so c = (k² − (2 v_d/r_b −
+    k)²)/(4k), k/4 (critically damped) where that exceeds k/4, 0 where no
+    c can (v_d > k r_b: the full brake stops it within v_d/k only)."""
+    excess = 2.0 * v_d / r_b - k
+    if excess <= 0.0:
+        return k / 4.0
+    return max(0.0, (k * k - excess * excess) / (4.0 * k))
+
+
+def corner_speed(
+    obstacle, v: np.ndarray, collision_radius: float, r_b: float, rate: float
+) -> float:
+    """The speed setpoint of eq 19 in a concave corner (math.inf where no
+    limit applies): |v| ≤ rate · r / (l_a·n) for each surface the vehicle
+    approaches (l_a·n > 0) at clearance r, so that its closing speed
+    follows the setpoint rate · r (`corner_rate`).
+
+    MFI's obstacle terms (eq 12, 14) are ⟂ v: they turn, they do not brake.
+    Against one surface a turn of at most 90° leaves it, but in a concave
+    corner (two or more seen surfaces within eq 15's range r_b, their
+    normals not opposed: `GAP_COSINE`) every tangent of one surface leads
+    into another, and in the corner of two walls and a floor none is left:
+    the vehicle must stop and turn back, and eq 19 is the only brake."""
+    seen = [
+        r_o
+        for r_o, s in readings(obstacle)
+        if s > 0.5 and np.linalg.norm(r_o) - collision_radius < r_b
+    ]
+    normals = [r_o / np.linalg.norm(r_o) for r_o in seen]
+    corner = any(
+        normals[i] @ normals[j] > GAP_COSINE
+        for i in range(len(normals))
+        for j in range(i)
+    )
+    speed = float(np.linalg.norm(v))
+    if not corner or speed < 1e-9:
+        return math.inf
+    limit = math.inf
+    for r_o, n in zip(seen, normals, strict=True):
+        closing = (v @ n) / speed  # l_a·n
+        if closing > 0.0:
+            r = max(0.0, float(np.linalg.norm(r_o)) - collision_radius)
+            limit = min(limit, rate * r / closing)
+    return limit
 
 
 def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
@@ -247,10 +331,12 @@ def subgoal(
         return goal
     r = distance - collision_radius
     pull = max(-1.0, min(1.0, params.hug * (r - params.follow_distance)))
-    u = t / size + pull * n
-    target = p + params.lookahead * u / np.linalg.norm(u)
-    # In the plane ⟂ a through the goal: circulating about ±e_z the vehicle
-    # keeps to the goal's height; about a horizontal axis, to the vertical
-    # plane through H and the goal (Bug algorithms' plane through the goal).
+    # The plane ⟂ a through the goal is hugged as the surface is, with the
+    # same κ: circulating about ±e_z the vehicle keeps to the goal's height;
+    # about a horizontal axis, to the vertical plane through H and the goal
+    # (Bug algorithms' plane through the goal). Off it, a lintel or a ceiling
+    # can stand in for the wall it follows and hide a door.
     unit = a / np.linalg.norm(a)
-    return target - ((target - goal) @ unit) * unit
+    level = max(-1.0, min(1.0, params.hug * ((goal - p) @ unit)))
+    u = t / size + pull * n + level * unit
+    return p + params.lookahead * u / np.linalg.norm(u)

@@ -4,10 +4,10 @@ memory it builds in flight, for method "mfi-nc" (docs/nonconvex.md).
 The memory is the system's one discrete state group (`escape.MEMORY_SIZE`
 floats), set at initialization and updated by a per-step unrestricted
 update event: a flight is deterministic and replayable, and the event
-forces no step boundaries, so until the first trap the flight is MFI's
-step for step. Once the memory says TRAPPED the event ends the flight
-(`EventStatus.ReachedTermination`, message `TRAPPED_MESSAGE`): the goal
-cannot be reached.
+forces no step boundaries, so until the first trap (or concave corner,
+below) the flight is MFI's step for step. Once the memory says TRAPPED
+the event ends the flight (`EventStatus.ReachedTermination`, message
+`TRAPPED_MESSAGE`): the goal cannot be reached.
 
 Method "mfi-nc" pairs it with MFI's `GoalAttractionSelector` aimed at the
 goal (eq 16–21 unchanged, the terminal PD included). While the memory
@@ -16,7 +16,11 @@ eq 11–15 with r_g = ĝ − p, and "obstacle_force" adds the redirection
 F_gc(ĝ) − F_gc(g) (eq 16–18), which turns the selector's cruise pull
 toward the goal into one toward ĝ (repair (g)'s drag then sees F_o +
 F_gc(ĝ), the turning force flown). The redirection is ⟂ v, as F_gc is:
-it does no work. "obstacle_force_terms" holds [F, F_a + redirection].
+it does no work. Eq 19's setpoint is the rule's follow_speed while
+following and, in any phase, at most `escape.corner_speed` in a concave
+corner (the corner brake, `EscapeParams.corner_brake`): "obstacle_force"
+adds F_v(setpoint) − F_v(v_d), which brakes along −l_a.
+"obstacle_force_terms" holds [F, F_a + redirection + brake].
 Float only: `analyze` linearises the memoryless chain (`MfiNavigator`).
 """
 
@@ -32,6 +36,7 @@ from mfi_drake.maths.layout import (
     position_velocity,
 )
 from mfi_drake.systems.last_result import LastResult
+from mfi_drake.systems.navigation import declare_obstacle_force_ports
 
 DEFAULT_RULE = escape.EscapeParams()
 TRAPPED_MESSAGE = "trapped: the escape rule has run out of options"
@@ -60,13 +65,18 @@ class EscapeNavigator(LeafSystem):
         params,
         goal,
         collision_radius: float,
+        mass: float,
         rule: escape.EscapeParams = DEFAULT_RULE,
     ):
         super().__init__()
         self.params = copy.deepcopy(params)
-        self.rule = rule
+        self.rule = copy.deepcopy(rule)
         self.goal = np.array(goal, dtype=float)
         self.collision_radius = float(collision_radius)
+        self.mass = float(mass)
+        # Eq 19's brake rate k = K_v/m gives the corner's setpoint gain.
+        k = self.params.K_v / self.mass
+        self._rate = escape.corner_rate(k, self.params.v_d, self.params.r_b)
         self._last = LastResult()
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
@@ -78,20 +88,7 @@ class EscapeNavigator(LeafSystem):
         }
         self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
         self.DeclarePerStepUnrestrictedUpdateEvent(self._update)
-        self.DeclareVectorOutputPort(
-            "obstacle_force",
-            3,
-            lambda context, out: out.SetFromVector(self._terms(context)[2]),
-            prerequisites_of_calc=tickets,
-        )
-        self.DeclareVectorOutputPort(
-            "obstacle_force_terms",
-            6,
-            lambda context, out: out.SetFromVector(
-                np.concatenate(self._terms(context)[:2])
-            ),
-            prerequisites_of_calc=tickets,
-        )
+        declare_obstacle_force_ports(self, self._terms, tickets)
         self.DeclareVectorOutputPort(
             "escape",
             4,
@@ -143,6 +140,16 @@ class EscapeNavigator(LeafSystem):
         target = escape.subgoal(
             memory, p, obstacle, self.goal, self.collision_radius, self.rule
         )
+        v_d = self.params.v_d
+        if target is not self.goal:
+            v_d = self.rule.follow_speed
+        if self.rule.corner_brake:
+            v_d = min(
+                v_d,
+                escape.corner_speed(
+                    obstacle, v, self.collision_radius, self.params.r_b, self._rate
+                ),
+            )
         A, B = fields.superposed(
             fields.obstacle_field,
             v,
@@ -151,17 +158,19 @@ class EscapeNavigator(LeafSystem):
             self.collision_radius,
             self.params,
         )
+        if v_d < self.params.v_d:
+            # Eq 19 at the lower speed setpoint instead of v_d.
+            B = (
+                B
+                + fields.speed_control_field(v, self.params.K_v, v_d)
+                - fields.speed_control_field(v, self.params.K_v, self.params.v_d)
+            )
         if target is not self.goal:
             smooth = self.params.smooth_goal_turn
             K = self.params.K_omega
-            # Eq 19 at the following speed instead of v_d.
-            slower = fields.speed_control_field(
-                v, self.params.K_v, self.rule.follow_speed
-            ) - fields.speed_control_field(v, self.params.K_v, self.params.v_d)
             B = (
                 B
                 + fields.goal_attraction_field(v, target - p, K, smooth)
                 - fields.goal_attraction_field(v, self.goal - p, K, smooth)
-                + slower
             )
         return A, B, A + B, target

@@ -44,6 +44,25 @@ from mfi_drake.maths.layout import (
 from mfi_drake.systems.last_result import LastResult
 
 
+def declare_obstacle_force_ports(system, terms, tickets: set) -> None:
+    """Declares a navigator's outputs "obstacle_force" (F_o, 3) and
+    "obstacle_force_terms" ([A, B], 6) on `system`, from `terms(context)` =
+    (A, B, F_o, ...), computed once for both; `tickets` their
+    prerequisites."""
+    system.DeclareVectorOutputPort(
+        "obstacle_force",
+        3,
+        lambda context, out: out.SetFromVector(terms(context)[2]),
+        prerequisites_of_calc=tickets,
+    )
+    system.DeclareVectorOutputPort(
+        "obstacle_force_terms",
+        6,
+        lambda context, out: out.SetFromVector(np.concatenate(terms(context)[:2])),
+        prerequisites_of_calc=tickets,
+    )
+
+
 @TemplateSystem.define("ObstacleNavigator_")
 def ObstacleNavigator_(T):
     class Impl(LeafSystem_[T]):
@@ -85,20 +104,7 @@ def ObstacleNavigator_(T):
                 "obstacle", OBSTACLE_SIGNAL_SIZE
             )
             tickets = {self._state.ticket(), self._obstacle.ticket()}
-            self.DeclareVectorOutputPort(
-                "obstacle_force",
-                3,
-                lambda context, out: out.SetFromVector(self._terms(context)[2]),
-                prerequisites_of_calc=tickets,
-            )
-            self.DeclareVectorOutputPort(
-                "obstacle_force_terms",
-                6,
-                lambda context, out: out.SetFromVector(
-                    np.concatenate(self._terms(context)[:2])
-                ),
-                prerequisites_of_calc=tickets,
-            )
+            declare_obstacle_force_ports(self, self._terms, tickets)
 
         def _construct_copy(self, other, converter=None):
             Impl._construct(
