@@ -85,6 +85,8 @@ def _unreachable(scheduler: str) -> str | None:
     if protocol not in ("tcp", "tls"):
         return None
     host, port = parse_host_port(location)  # ValueError: no port
+    if not 0 < port < 65536:
+        return f"not an address: port {port} is not one of 1 to 65535"
     try:
         socket.create_connection((host, port), timeout=CONNECT_WAIT).close()
     except socket.gaierror:
@@ -93,7 +95,7 @@ def _unreachable(scheduler: str) -> str | None:
         return f"cannot connect: nothing listens at port {port} of {host}"
     except TimeoutError:
         return f"cannot connect: {host} does not answer within {CONNECT_WAIT:g} s"
-    except (OSError, OverflowError) as e:  # OverflowError: port > 65535
+    except OSError as e:
         return f"cannot connect ({_one_line(e)})"
     return None
 
@@ -115,18 +117,16 @@ def _connect(scheduler: str):
             return Client(scheduler, timeout=CONNECT_WAIT)
     except TypeError:  # Dask's words: "TLS expects a `ssl_context` argument"
         why = f"cannot connect without a certificate: set {certificates}"
-    except FatalCommClosedError:  # "TLS certificate does not match"
-        why = (
-            "the client does not trust the scheduler's certificate: Dask's "
-            "distributed.comm.tls.ca-file (or DASK_DISTRIBUTED__COMM__TLS__CA_FILE) "
-            "is another CA's"
-        )
     except OSError as e:
         why = f"cannot connect ({_one_line(e)})"
-        if tls and "SSL" in str(e):  # the scheduler closed the handshake
+        # Either side may be the one to close the handshake first: the
+        # scheduler refusing the client's certificate, or the client the
+        # scheduler's ("TLS certificate does not match").
+        if tls and ("SSL" in str(e) or isinstance(e, FatalCommClosedError)):
             why = (
-                "the scheduler refuses the client's certificate (one signed by "
-                f"another CA?): set {certificates} to the cluster's"
+                "the TLS handshake failed: the scheduler refuses the client's "
+                "certificate, or the client the scheduler's (signed by another "
+                f"CA?): set {certificates} to the cluster's"
             )
         elif "Timed out" in str(e):
             why = (
@@ -279,6 +279,15 @@ def _package_words(installed: tuple[str, str] | None) -> str:
     return f"mfi_drake {installed[0]} (maths sources {installed[1]})"
 
 
+def _same_package(mine, where: str, theirs) -> None:
+    if theirs != mine:
+        raise ClusterError(
+            f"{where} has {_package_words(theirs)}, the client "
+            f"{_package_words(mine)}: install the client's on every machine "
+            "of the cluster"
+        )
+
+
 def check_cluster(client, methods: Sequence[str] = ()) -> None:
     """Refuses the cluster of `client` before any task, with a ClusterError
     naming the machine: a scheduler or worker without the client's
@@ -287,19 +296,12 @@ def check_cluster(client, methods: Sequence[str] = ()) -> None:
     import on a worker (the module and the worker named)."""
     probe = _probe()
     mine = probe()
-    there = {"the scheduler": client.run_on_scheduler(probe)}
+    _same_package(mine, "the scheduler", client.run_on_scheduler(probe))
     _wait_for_workers(client, "none joined")
     # A worker that dies meanwhile returns its error: it flies nothing.
     for worker, theirs in client.run(probe, on_error="return").items():
         if not isinstance(theirs, Exception):
-            there[f"worker {worker}"] = theirs
-    for where, theirs in there.items():
-        if theirs != mine:
-            raise ClusterError(
-                f"{where} has {_package_words(theirs)}, the client "
-                f"{_package_words(mine)}: install the client's on every machine "
-                "of the cluster"
-            )
+            _same_package(mine, f"worker {worker}", theirs)
     if user := [m for m in methods if m not in METHODS]:
         checks = client.run(_import_problem, user, on_error="return")
         for worker, problem in checks.items():
