@@ -134,7 +134,8 @@ def test_workers_with_another_version_are_one_line(tmp_path, client_dir, capsys)
         line = refusal(capsys, args, tmp_path / "o")
         assert f"has mfi_drake 0.0.1 (maths sources e3b0c44298fc), the client " \
             f"mfi_drake {mine} (maths sources " in line, line  # fmt: skip
-        (address,) = distributed.Client(cluster.address).scheduler_info()["workers"]
+        with distributed.Client(cluster.address) as watcher:
+            (address,) = watcher.scheduler_info()["workers"]
         assert f": worker {address} has " in line, line
         cluster.kill("old")
         cluster.add_worker("edited", stub(tmp_path / "edited", mine, "x = 1\n"))
