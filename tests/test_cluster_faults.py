@@ -162,7 +162,10 @@ def test_a_flight_that_kills_its_workers_is_lost_in_one_line(tmp_path):
     lost in the last line, exit status 1."""
     (tmp_path / "killer.py").write_text(KILLER)
     args = [*SWEEP[:-3], "mfi,killer:field", "--set", "duration: 3"]
-    env = {"DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1"}
+    env = {  # a worker holds one task at a time: only the killer dies with it
+        "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1",
+        "DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION": "1.0",
+    }
     result = mfi_drake([*args, "--workers", "2", "--out", "out"], tmp_path, env)
     assert result.returncode == 1, result.stderr[-2000:]
     line = result.stderr.strip().splitlines()[-1]

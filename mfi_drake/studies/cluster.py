@@ -24,7 +24,9 @@ PRELOAD = ["distributed", "mfi_drake.studies.sweep"]
 class Progress:
     """A text progress bar on stderr (a line per 10 % when not a terminal)."""
 
-    def __init__(self, total: int, stream=sys.stderr):
+    def __init__(self, total: int, stream=None):
+        # sys.stderr when called, not when defined: a test may swap it.
+        stream = stream or sys.stderr
         self.total, self.done, self.stream = total, 0, stream
         self.start = time.monotonic()
         self._tty = stream.isatty()

@@ -54,7 +54,6 @@ import dataclasses
 import functools
 import hashlib
 import os
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -295,7 +294,7 @@ def run_sweep(
     config: SweepConfig,
     client,
     modify: Callable[[Scenario], Scenario] | None = None,
-    progress_stream=sys.stderr,
+    progress_stream=None,
     tasks: Tasks = SINGLE,
 ) -> SweepRun:
     """Flies every flight of `config` not yet in DIR/results.jsonl on the
