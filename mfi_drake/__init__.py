@@ -40,6 +40,10 @@ world → systems → flight → studies → app.
 
 import importlib
 
+# The release (pyproject.toml reads it here); a sweep refuses a cluster whose
+# scheduler or workers have another (`studies.cluster.check_cluster`).
+__version__ = "0.1.0"
+
 _API = {
     "load_scenario": "mfi_drake.world.validation",
     "Scenario": "mfi_drake.config.scenario",

@@ -37,6 +37,9 @@ from .test_methods import USER_MODULE
 distributed = pytest.importorskip("distributed")
 
 DASK = os.path.join(os.path.dirname(sys.executable), "dask")
+# The checkout under test, on every process's import path (the package may
+# be installed from another).
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # A small seeded sweep: 2 fields of 20 obstacles, MFI and a user's field
 # (shipped to the workers), 3 s flights.
 SWEEP = ["sweep", "--n", "2", "--seed", "4711", "--density", "0.1"]
@@ -61,13 +64,17 @@ GUARD = textwrap.dedent(
 
 
 class Cluster:
-    """A scheduler and workers, each its own process, in `root`."""
+    """A scheduler and workers, each its own process, in `root`, importing
+    this checkout (or what `path`, a PYTHONPATH, holds: `path` for the
+    scheduler, add_worker's for a worker)."""
 
-    def __init__(self, root: Path, client_dir: Path, tls: list[str] = ()):
+    def __init__(
+        self, root: Path, client_dir: Path, tls: list[str] = (), path: str = ROOT
+    ):
         self.root, self.tls = root, list(tls)
         root.mkdir(parents=True, exist_ok=True)
         (root / "guard.py").write_text(GUARD)
-        self.env = os.environ | {"MFI_CLIENT_DIR": str(client_dir), "PYTHONPATH": ""}
+        self.env = os.environ | {"MFI_CLIENT_DIR": str(client_dir), "PYTHONPATH": ROOT}
         self.file = root / "scheduler.json"
         self.workers: dict[str, subprocess.Popen] = {}
         self.scheduler = self._start(
@@ -76,19 +83,21 @@ class Cluster:
             + ["--dashboard-address", ":0", "--scheduler-file", str(self.file)]
             + (["--protocol", "tls"] if tls else [])
             + self.tls,
+            path,
         )
         deadline = time.monotonic() + 60
         while not self.file.exists() and time.monotonic() < deadline:
             time.sleep(0.2)
         self.address = json.loads(self.file.read_text())["address"]
 
-    def _start(self, name: str, command: list[str]) -> subprocess.Popen:
+    def _start(self, name: str, command: list[str], path: str) -> subprocess.Popen:
         log = open(self.root / f"{name}.log", "w")  # noqa: SIM115 (closed by the OS)
         return subprocess.Popen(
-            command, cwd=self.root, env=self.env, stdout=log, stderr=subprocess.STDOUT
-        )
+            command, cwd=self.root, env=self.env | {"PYTHONPATH": path},
+            stdout=log, stderr=subprocess.STDOUT,
+        )  # fmt: skip
 
-    def add_worker(self, name: str) -> None:
+    def add_worker(self, name: str, path: str = ROOT) -> None:
         self.workers[name] = self._start(
             name,
             [DASK, "worker", "--scheduler-file", str(self.file), "--name", name]
@@ -100,6 +109,7 @@ class Cluster:
                 str(self.root / "guard.py"),
             ]
             + ["--local-directory", str(self.root / name), *self.tls],
+            path,
         )
 
     def kill(self, name: str) -> None:
@@ -119,7 +129,7 @@ class Cluster:
 def mfi_drake(args: list[str], cwd: Path, env: dict | None = None, wait=True):
     """The command line, in a process of its own (the client)."""
     command = [sys.executable, "-m", "mfi_drake.app.cli", *args]
-    environment = os.environ | {"PYTHONPATH": ""} | (env or {})
+    environment = os.environ | {"PYTHONPATH": ROOT} | (env or {})
     if not wait:
         return subprocess.Popen(
             command, cwd=cwd, env=environment, stdout=subprocess.PIPE, text=True,

@@ -24,7 +24,9 @@ PRELOAD = ["distributed", "mfi_drake.studies.sweep"]
 class Progress:
     """A text progress bar on stderr (a line per 10 % when not a terminal)."""
 
-    def __init__(self, total: int, stream=sys.stderr):
+    def __init__(self, total: int, stream=None):
+        # sys.stderr when called, not when defined: a test may swap it.
+        stream = stream or sys.stderr
         self.total, self.done, self.stream = total, 0, stream
         self.start = time.monotonic()
         self._tty = stream.isatty()
@@ -65,10 +67,77 @@ def require_dask() -> None:
 
 
 WORKER_WAIT = 60.0  # s a run waits for a worker, at its start or when all left
+CONNECT_WAIT = 10.0  # s the client tries to reach a scheduler
 
 
 def _one_line(e: BaseException) -> str:
     return f"{type(e).__name__}: {' '.join(str(e).split())}"[:300]
+
+
+def _unreachable(scheduler: str) -> str | None:
+    """Why nothing can answer at the address `scheduler` (no port, a host
+    that does not resolve, a port where nothing listens), found by a plain
+    socket at once rather than by Dask's CONNECT_WAIT of retries; None if
+    something listens there (or a protocol other than tcp/tls)."""
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    protocol, location = parse_address(scheduler)  # ValueError: unknown scheme
+    if protocol not in ("tcp", "tls"):
+        return None
+    host, port = parse_host_port(location)  # ValueError: no port
+    if not 0 < port < 65536:
+        return f"not an address: port {port} is not one of 1 to 65535"
+    try:
+        socket.create_connection((host, port), timeout=CONNECT_WAIT).close()
+    except socket.gaierror:
+        return f"cannot connect: no host {host!r} is known"
+    except ConnectionRefusedError:
+        return f"cannot connect: nothing listens at port {port} of {host}"
+    except TimeoutError:
+        return f"cannot connect: {host} does not answer within {CONNECT_WAIT:g} s"
+    except OSError as e:
+        return f"cannot connect ({_one_line(e)})"
+    return None
+
+
+def _connect(scheduler: str):
+    """A client of the scheduler at `scheduler`; ClusterError saying why
+    not, in the user's words."""
+    from distributed import Client
+    from distributed.comm.core import FatalCommClosedError
+
+    tls = scheduler.startswith("tls://")
+    certificates = (
+        "Dask's distributed.comm.tls.ca-file, .client.cert and .client.key "
+        "(or DASK_DISTRIBUTED__COMM__TLS__*)"
+    )
+    try:
+        why = _unreachable(scheduler)
+        if why is None:
+            return Client(scheduler, timeout=CONNECT_WAIT)
+    except TypeError:  # Dask's words: "TLS expects a `ssl_context` argument"
+        why = f"cannot connect without a certificate: set {certificates}"
+    except OSError as e:
+        why = f"cannot connect ({_one_line(e)})"
+        # Either side may be the one to close the handshake first: the
+        # scheduler refusing the client's certificate, or the client the
+        # scheduler's ("TLS certificate does not match").
+        if tls and ("SSL" in str(e) or isinstance(e, FatalCommClosedError)):
+            why = (
+                "the TLS handshake failed: the scheduler refuses the client's "
+                "certificate, or the client the scheduler's (signed by another "
+                f"CA?): set {certificates} to the cluster's"
+            )
+        elif "Timed out" in str(e):
+            why = (
+                f"no Dask scheduler answers within {CONNECT_WAIT:g} s "
+                "(the dashboard's port? a tcp:// address of a tls:// scheduler?)"
+            )
+    except ValueError as e:  # no port, an unknown scheme
+        why = f"not an address ({_one_line(e)})"
+    raise ClusterError(f"--scheduler = {scheduler!r}: {why}")
 
 
 @contextlib.contextmanager
@@ -94,18 +163,7 @@ def dask_client(
     from distributed.utils import get_mp_context
 
     if scheduler:
-        try:
-            client = Client(scheduler, timeout=10)
-        except (OSError, TypeError, ValueError) as e:
-            why = f"({_one_line(e)})"
-            if isinstance(e, TypeError) and scheduler.startswith("tls://"):
-                why = (  # Dask's words: "TLS expects a `ssl_context` argument"
-                    "without a certificate: set Dask's distributed.comm.tls.ca-file, "
-                    ".client.cert and .client.key (or DASK_DISTRIBUTED__COMM__TLS__*)"
-                )
-            raise ClusterError(
-                f"--scheduler = {scheduler!r}: cannot connect {why}"
-            ) from None
+        client = _connect(scheduler)
         with client:
             ship_modules(client, methods)
             yield client
@@ -187,6 +245,72 @@ def _import_problem(methods: Sequence[str]) -> str | None:
     return None
 
 
+def _probe() -> Callable[[], tuple[str, str] | None]:
+    """The function that tells which mfi_drake a process has: None without
+    one, else its __version__ and a hash of its maths modules' sources
+    (what the compiled engine compiles: a worker must compile the client's).
+    Defined in this function, so that cloudpickle sends its code rather than
+    its name in this module, which a process without the package, or with
+    another version of it, may not import; it imports no more of the
+    package than its __init__."""
+
+    def installed() -> tuple[str, str] | None:
+        import hashlib
+        import importlib
+        import os
+
+        try:
+            package = importlib.import_module("mfi_drake")
+        except ImportError:
+            return None
+        maths = os.path.join(os.path.dirname(package.__file__), "maths")
+        digest = hashlib.sha256()
+        for name in sorted(os.listdir(maths)) if os.path.isdir(maths) else ():
+            if name.endswith(".py"):
+                with open(os.path.join(maths, name), "rb") as f:
+                    digest.update(name.encode() + b"\0" + f.read())
+        version = getattr(package, "__version__", "without __version__")
+        return version, digest.hexdigest()[:12]
+
+    return installed
+
+
+def _package_words(installed: tuple[str, str] | None) -> str:
+    if installed is None:
+        return "no mfi_drake"
+    return f"mfi_drake {installed[0]} (maths sources {installed[1]})"
+
+
+def _same_package(mine, where: str, theirs) -> None:
+    if theirs != mine:
+        raise ClusterError(
+            f"{where} has {_package_words(theirs)}, the client "
+            f"{_package_words(mine)}: install the client's on every machine "
+            "of the cluster"
+        )
+
+
+def check_cluster(client, methods: Sequence[str] = ()) -> None:
+    """Refuses the cluster of `client` before any task, with a ClusterError
+    naming the machine: a scheduler or worker without the client's
+    mfi_drake (its version and its maths sources, both sides named), no
+    worker within WORKER_WAIT, or a MODULE:NAME of `methods` that does not
+    import on a worker (the module and the worker named)."""
+    probe = _probe()
+    mine = probe()
+    _same_package(mine, "the scheduler", client.run_on_scheduler(probe))
+    _wait_for_workers(client, "none joined")
+    # A worker that dies meanwhile returns its error: it flies nothing.
+    for worker, theirs in client.run(probe, on_error="return").items():
+        if not isinstance(theirs, Exception):
+            _same_package(mine, f"worker {worker}", theirs)
+    if user := [m for m in methods if m not in METHODS]:
+        checks = client.run(_import_problem, user, on_error="return")
+        for worker, problem in checks.items():
+            if isinstance(problem, str):
+                raise ClusterError(f"--methods: {problem} on worker {worker}")
+
+
 def _wait_for_workers(client, why: str) -> None:
     try:
         client.wait_for_workers(1, timeout=WORKER_WAIT)
@@ -218,21 +342,17 @@ def run_tasks(
     lost (its worker died `distributed.scheduler.allowed-failures` times,
     or a MODULE:NAME that its worker could not import): a rerun retries it.
 
-    First waits up to WORKER_WAIT for a worker and checks that every
-    MODULE:NAME of `methods` imports on every worker (ClusterError naming
-    the module and the worker if not). A task whose worker dies is run
-    again on another by the scheduler. If every worker has gone, it waits
-    WORKER_WAIT for one to join, then raises ClusterError (the results
-    handed to on_result stay)."""
+    First checks the cluster (`check_cluster`: its mfi_drake, a worker
+    within WORKER_WAIT, every MODULE:NAME of `methods` importing on every
+    worker). A task whose worker dies is run again on another by the
+    scheduler; one that killed more than allowed-failures is lost, its
+    line saying so. If every worker has gone, it waits WORKER_WAIT for one
+    to join, then raises ClusterError (the results handed to on_result
+    stay)."""
     from distributed import as_completed
+    from distributed.scheduler import KilledWorker
 
-    _wait_for_workers(client, "none joined")
-    if user := [m for m in methods if m not in METHODS]:
-        # A worker that dies meanwhile returns its error: it flies nothing.
-        checks = client.run(_import_problem, user, on_error="return")
-        for worker, problem in checks.items():
-            if isinstance(problem, str):
-                raise ClusterError(f"--methods: {problem} on worker {worker}")
+    check_cluster(client, methods)
     submitted = {}
 
     def submit(task: Task):
@@ -261,10 +381,17 @@ def run_tasks(
             tag = futures.pop(future)
             try:
                 result = future.result()
-            except Exception as e:  # the cluster lost it (a killed worker, ...)
+            except KilledWorker as e:
+                lost.append(
+                    f"{e.task}: it killed {e.allowed_failures + 1} workers, the last "
+                    f"{e.last_worker.address} (Dask's distributed.scheduler."
+                    f"allowed-failures = {e.allowed_failures})"
+                )
+            except Exception as e:  # the cluster lost it otherwise
                 lost.append(f"{tag}: {_one_line(e)}")
-                if progress is not None:
-                    progress.step("(lost)")
+            else:
+                on_result(tag, result)
                 continue
-            on_result(tag, result)
+            if progress is not None:
+                progress.step("(lost)")
     return lost

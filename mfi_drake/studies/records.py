@@ -1,7 +1,7 @@
 """A sweep's record store: each flight's key (`FlightKey`), the outcomes a
 record may hold, and DIR/results.jsonl, read whole (`read_results`, a
 partial last line cut off) and appended one complete line at a time
-(`append_record`)."""
+(`append_record`, `ResultsFile`)."""
 
 import json
 import os
@@ -68,3 +68,25 @@ def append_record(f, record: dict) -> None:
     f.write(json.dumps(record, allow_nan=False) + "\n")
     f.flush()
     os.fsync(f.fileno())
+
+
+class ResultsFile:
+    """A records file appended one record at a time (`append_record`),
+    created with its folder at the first record: a run refused before
+    anything flies leaves no file behind. Closed on leaving a `with`."""
+
+    def __init__(self, path: str):
+        self.path, self._file = path, None
+
+    def append(self, record: dict) -> None:
+        if self._file is None:
+            os.makedirs(os.path.dirname(os.path.abspath(self.path)), exist_ok=True)
+            self._file = open(self.path, "a")  # noqa: SIM115 (closed on exit)
+        append_record(self._file, record)
+
+    def __enter__(self) -> "ResultsFile":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._file is not None:
+            self._file.close()

@@ -54,7 +54,6 @@ import dataclasses
 import functools
 import hashlib
 import os
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -74,7 +73,7 @@ from mfi_drake.studies.cluster import Progress, Task, run_tasks
 from mfi_drake.studies.records import (
     RANDOM,
     FlightKey,
-    append_record,
+    ResultsFile,
     key_record,
     read_results,
     record_key,
@@ -295,7 +294,7 @@ def run_sweep(
     config: SweepConfig,
     client,
     modify: Callable[[Scenario], Scenario] | None = None,
-    progress_stream=sys.stderr,
+    progress_stream=None,
     tasks: Tasks = SINGLE,
 ) -> SweepRun:
     """Flies every flight of `config` not yet in DIR/results.jsonl on the
@@ -304,7 +303,6 @@ def run_sweep(
     the first field cannot be flown (e.g. a sensor the diagram does not
     support). `tasks`: what each field is and how it is flown (`SINGLE`:
     one vehicle a field)."""
-    os.makedirs(config.out, exist_ok=True)
     results_path = os.path.join(config.out, "results.jsonl")
     records = read_results(results_path)
     done = {record_key(r) for r in records}
@@ -339,11 +337,13 @@ def run_sweep(
         )
         submitted.append((key, task))
     progress = Progress(len(submitted), progress_stream)
-    with open(results_path, "a") as f:
+    # DIR and results.jsonl are made at the first record: a run the cluster
+    # refuses (`check_cluster`) leaves nothing behind.
+    with ResultsFile(results_path) as results:
 
         def on_result(key: FlightKey, result: dict) -> None:
             record = key_record(key) | result
-            append_record(f, record)
+            results.append(record)
             records.append(record)
             if record["outcome"] != "success":
                 path = _failure_path(config, key, fields[key.field])

@@ -59,7 +59,7 @@ from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.methods import Gain, Method, resolve_method
 from mfi_drake.studies.cluster import ClusterError, Task, run_tasks
 from mfi_drake.studies.compare import PAPER_SCENARIOS
-from mfi_drake.studies.records import append_record, read_results
+from mfi_drake.studies.records import ResultsFile, read_results
 from mfi_drake.studies.sweep import (
     SweepConfig,
     SweepRun,
@@ -272,7 +272,6 @@ def tune(
     for method in methods.values():
         if not method.gains:
             raise TuneError(f"--methods: {method.name!r} declares no free gains")
-    os.makedirs(config.out, exist_ok=True)
     results_path = os.path.join(config.out, "tune.jsonl")
     done = read_results(results_path)
     fields = training_fields(config)
@@ -288,12 +287,12 @@ def tune(
         config.methods,
     )
     best = {}
-    with open(results_path, "a") as results:
+    with ResultsFile(results_path) as results:
         for name, method in methods.items():
             mine = [r for r in done if r["method"] == name]
             best[name] = _tune_method(
                 config, client, method, fields, texts, references, mine,
-                lambda record: append_record(results, record),
+                results.append,
                 progress_stream,
             )  # fmt: skip
     write_text(
