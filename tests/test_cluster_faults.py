@@ -89,10 +89,20 @@ def test_a_client_certificate_from_another_ca_is_one_line(tmp_path, client_dir, 
 STUB = "__version__ = {version!r}\n"
 # On a process's import path: hides the installed package (its editable
 # finder), as on a machine where it was never installed.
-HIDE = (
-    "import sys\n"
-    "sys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in repr(f)]\n"
-)
+# A sitecustomize that hides mfi_drake however it is installed (editable or
+# in site-packages): a first finder that refuses it.
+HIDE = """\
+import sys
+
+
+class Hide:
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] == "mfi_drake":
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+
+
+sys.meta_path.insert(0, Hide())
+"""
 
 
 def stub(directory: Path, version: str, maths: str = "") -> str:
