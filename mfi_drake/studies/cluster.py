@@ -106,7 +106,7 @@ def _connect(scheduler: str):
     """A client of the scheduler at `scheduler`; ClusterError saying why
     not, in the user's words."""
     from distributed import Client
-    from distributed.comm.core import FatalCommClosedError
+    from distributed.comm.core import CommClosedError
 
     tls = scheduler.startswith("tls://")
     certificates = (
@@ -121,10 +121,12 @@ def _connect(scheduler: str):
         why = f"cannot connect without a certificate: set {certificates}"
     except OSError as e:
         why = f"cannot connect ({_one_line(e)})"
-        # Either side may be the one to close the handshake first: the
-        # scheduler refusing the client's certificate, or the client the
-        # scheduler's ("TLS certificate does not match").
-        if tls and ("SSL" in str(e) or isinstance(e, FatalCommClosedError)):
+        # Something listens (`_unreachable` connected), so a tls:// comm
+        # closed on connect is the handshake. Either side may close it
+        # first: the scheduler refusing the client's certificate (the client
+        # then sees "Connection reset by peer" or an SSL error), or the
+        # client the scheduler's ("TLS certificate does not match").
+        if tls and ("SSL" in str(e) or isinstance(e, CommClosedError)):
             why = (
                 "the TLS handshake failed: the scheduler refuses the client's "
                 "certificate, or the client the scheduler's (signed by another "
