@@ -2,6 +2,7 @@
 flight of mfi-nc when its escape rule has run out of options, well before
 the time limit; MFI, which has no such rule, flies to the limit."""
 
+import dataclasses
 import json
 
 from mfi_drake.app.cli import main
@@ -27,10 +28,12 @@ def test_a_sealed_box_ends_trapped_and_run_says_so(tmp_path, capsys):
     assert metrics["outcome"] == "trapped" and metrics["trapped"] is True
     assert metrics["sim_time"] < 0.85 * box.duration  # ended by the rule
     assert metrics["min_clearance"] > 0.0 and not metrics["reached"]
-    # The same goal with MFI: nothing ends the flight before the limit.
-    mfi = simulate(box, "mfi", **SWEEP_ENDS).metrics
+    # The same goal with MFI: nothing ends the flight before its limit, set
+    # past the time mfi-nc's rule ended (a shorter flight: it is the slow one).
+    limit = dataclasses.replace(box, duration=metrics["sim_time"] + 10.0)
+    mfi = simulate(limit, "mfi", **SWEEP_ENDS).metrics
     assert outcome(mfi) == mfi["outcome"] == "timeout" and "trapped" not in mfi
-    assert mfi["sim_time"] == box.duration
+    assert mfi["sim_time"] == limit.duration
 
 
 def test_outcome_names_a_trapped_vehicle_unless_it_collided_or_all_reached():
