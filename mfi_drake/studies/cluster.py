@@ -102,6 +102,33 @@ def _unreachable(scheduler: str) -> str | None:
     return None
 
 
+def _handshake(scheduler: str) -> None:
+    """Dask's comm handshake with `scheduler`, given CONNECT_WAIT: Dask's own
+    connect waits for the handshake's reply without a limit, so a port that
+    accepts but never speaks Dask (a web server, a stuck process) would hang
+    the client for ever. In a thread of its own, as the caller may be
+    running an event loop (a notebook)."""
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed.comm import connect
+    from distributed.security import Security
+
+    async def probe() -> None:
+        args = Security().get_connection_args("client")  # Dask's tls config
+        comm = await connect(scheduler, timeout=CONNECT_WAIT, **args)
+        await comm.close()
+
+    async def limited() -> None:
+        try:
+            await asyncio.wait_for(probe(), CONNECT_WAIT)
+        except TimeoutError:
+            raise OSError(f"Timed out: no handshake in {CONNECT_WAIT:g} s") from None
+
+    with ThreadPoolExecutor(1) as thread:
+        thread.submit(asyncio.run, limited()).result()
+
+
 def _connect(scheduler: str):
     """A client of the scheduler at `scheduler`; ClusterError saying why
     not, in the user's words."""
@@ -116,6 +143,7 @@ def _connect(scheduler: str):
     try:
         why = _unreachable(scheduler)
         if why is None:
+            _handshake(scheduler)
             return Client(scheduler, timeout=CONNECT_WAIT)
     except TypeError:  # Dask's words: "TLS expects a `ssl_context` argument"
         why = f"cannot connect without a certificate: set {certificates}"
