@@ -205,7 +205,6 @@ def test_a_fleet_on_one_integrator_stops_where_two_vehicles_touch():
     "change, method, named",
     [
         ({}, "mfi-nc", "method mfi-nc"),
-        ({}, "mfi-paper", "mfi_paper.smooth_goal_turn"),
         ({"sensor": "cameras"}, "mfi", "sensor"),
     ],
 )

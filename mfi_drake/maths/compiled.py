@@ -13,12 +13,11 @@ run. A few helpers are swapped for their float forms:
 - `fields._zeros` and `fields._zero3` give float zeros;
 - `motion._length` is √(x² + y² + z²): numba's hypot takes two arguments
   (the two differ in the last bit);
-- `baselines._matrix_vector` (GF's S ṗ) is written out: numba's matrix
-  product needs SciPy's BLAS (BLAS sums in its own order: the two differ in
-  the last bit now and then);
-- `fields._paper_attraction`, eq 16–18 by rotation matrices (numba's matrix
-  product needs SciPy's BLAS), raises: a fleet whose parameters turn that
-  way is refused before it flies (`flight.fleet.unsupported`).
+- `so3._value` (an AutoDiffXd's float) is the identity.
+
+Matrix products (`@`: eq 16–18's rotations, GF's S ṗ) compile as they are:
+numba calls SciPy's BLAS, which sums as numpy's does (the same OpenBLAS
+kernels: measured equal to the last bit).
 
 Parameters travel as named tuples of a dataclass's fields (`record`): numba
 reads a named tuple's attributes as Python reads the dataclass's.
@@ -74,19 +73,6 @@ def _float_length(x, y, z):
     return math.sqrt(x * x + y * y + z * z)
 
 
-def _float_matrix_vector(S, v):
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = S[i, 0] * v[0] + S[i, 1] * v[1] + S[i, 2] * v[2]
-    return out
-
-
-def _not_compiled(v, l_a, l_g, K_omega):
-    if K_omega == K_omega:  # always; numba types the caller by the return below
-        raise ValueError("eq 16-18's rotation matrices are not compiled")
-    return (K_omega, K_omega, K_omega)
-
-
 FLOAT_FORMS = {
     "sqrt": math.sqrt,
     "cos": math.cos,
@@ -95,11 +81,10 @@ FLOAT_FORMS = {
     "arccos": math.acos,
     "atan2": math.atan2,
     "entries": _identity,
+    "_value": _identity,
     "_zeros": _float_zeros,
     "_zero3": _float_zero3,
     "_length": _float_length,
-    "_matrix_vector": _float_matrix_vector,
-    "_paper_attraction": _not_compiled,
 }
 
 
