@@ -104,13 +104,12 @@ def test_the_compiled_paper_turn_is_the_systems_where_the_goal_is_behind(wall):
     # falls back to a fixed axis), not by the bisector's closed form.
     goal = np.array(wall.goal)
     states = list(random_states(np.random.default_rng(16), 40, away_from=goal))
-    behind = [
-        so3._bisector(so3.entries(x[6:9] / so3.norm(x[6:9])), so3.entries(l_g))
-        is None
-        for x in states
-        for l_g in [(goal - x[0:3]) / so3.norm(goal - x[0:3])]
-    ]
-    assert sum(behind) >= 10
+
+    def behind(x):  # l_a and l_g too far apart for the bisector
+        l_a, r_g = x[6:9] / so3.norm(x[6:9]), goal - x[0:3]
+        return so3._bisector(l_a, r_g / so3.norm(r_g)) is None
+
+    assert sum(map(behind, states)) >= 10  # measured: 37 of 40
     assert 1 in assert_chain_is_the_step(wall, "mfi-paper", states)
 
 
