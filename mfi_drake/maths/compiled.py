@@ -36,18 +36,16 @@ Two things make that sound where numba alone is not:
   (each field compiles its own chain) that a later process can name.
 - Numba stamps a cached function with its own file alone, while a clone's
   machine code holds the clones it calls from the other modules: the stamp
-  here is the hash of every module of MODULES and of this one, so an edit
-  to any of them compiles everything afresh.
+  here is the hash of every maths module (`sources_digest`, which a
+  cluster also compares between its machines), so an edit to any of them
+  compiles everything afresh.
 """
 
 import collections
 import dataclasses
 import functools
-import hashlib
-import inspect
 import math
 import os
-import sys
 import types
 
 import numpy as np
@@ -179,10 +177,25 @@ def _cache_class() -> type:
 
 @functools.cache
 def _sources_stamp() -> str:
-    """The hash of the source of every module of MODULES and of this one."""
+    """`sources_digest` of this package's maths (MODULES and this one among
+    them)."""
+    return sources_digest(os.path.dirname(os.path.abspath(__file__)))
+
+
+def sources_digest(maths: str) -> str:
+    """The SHA-256 of the maths sources in the directory `maths` (every .py
+    file there, by name and bytes): what the compiled engine compiles. It
+    imports nothing of the package, so that a copy of it can run where
+    another mfi_drake is installed (`studies.cluster`'s probe of workers);
+    a missing directory hashes as an empty one."""
+    import hashlib
+    import os
+
     digest = hashlib.sha256()
-    for module in (*MODULES, sys.modules[__name__]):
-        digest.update(inspect.getsource(module).encode())
+    for name in sorted(os.listdir(maths)) if os.path.isdir(maths) else ():
+        if name.endswith(".py"):
+            with open(os.path.join(maths, name), "rb") as f:
+                digest.update(name.encode() + b"\0" + f.read())
     return digest.hexdigest()
 
 
