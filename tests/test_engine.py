@@ -13,7 +13,7 @@ import pytest
 
 from mfi_drake.app.cli import main
 from mfi_drake.config.scenario import ScenarioError
-from mfi_drake.flight.fleet import OneIntegratorFleet, check_one_integrator
+from mfi_drake.flight.fleet import OneIntegratorFleet, check_engine
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.flight.step import NavigationStep
 from mfi_drake.maths import compiled, fleet, so3
@@ -225,4 +225,4 @@ def test_what_the_compiled_engine_cannot_fly_is_refused_by_name(
 def test_the_engine_refusal_names_the_scenario_and_the_other_engine(wall):
     cameras = load_scenario(WALL, [("cameras", "sensor: !DepthCamera {}")])
     with pytest.raises(ScenarioError, match=r"sensor: .*\(engine: systems flies it\)"):
-        check_one_integrator(on_compiled(cameras), ["mfi"])
+        check_engine(on_compiled(cameras), ["mfi"])

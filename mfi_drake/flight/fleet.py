@@ -111,7 +111,7 @@ def method_systems(scenario: Scenario, method: Method) -> tuple:
     )
 
 
-def check_one_integrator(scenario: Scenario, methods: list) -> None:
+def check_engine(scenario: Scenario, methods: list) -> None:
     """Raises ScenarioError where `scenario` flies on the compiled engine
     (`flies_compiled`: a fleet on one integrator, or `engine: compiled`)
     and a method of `methods` cannot be flown so (`unsupported`)."""
@@ -132,7 +132,7 @@ class OneIntegratorFleet:
     """The diagram of the module docstring and its handles."""
 
     def __init__(self, scenario: Scenario, method: "str | Method"):
-        check_one_integrator(scenario, [method])
+        check_engine(scenario, [method])
         method = resolve_method(method)
         self.scenario, self.method = scenario, method.name
         self.vehicle = VEHICLES[scenario.vehicle]
