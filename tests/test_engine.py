@@ -5,8 +5,11 @@ systems engine itself (the step API `NavigationStep` at the same inputs,
 and whole flights), and the refusals' one line."""
 
 import dataclasses
+import os
+import shutil
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -196,6 +199,40 @@ def test_the_cache_falls_back_to_the_user_directory_where_the_package_is_read_on
     locator = compiled._cache_class()(function)._impl.locator
     assert isinstance(locator, caching.UserWideCacheLocator)
     assert locator.get_source_stamp() == compiled._sources_stamp()
+
+
+def test_a_new_stamp_prunes_the_stale_stamps_of_its_cache_directory(
+    tmp_path, monkeypatch
+):
+    from numba.core import config
+
+    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path))  # numba's first
+    function = compiled.compiled(fleet).fleet_chain.py_func
+    ours = compiled._cache_class()(function)._impl.locator.get_cache_path()
+    parent = os.path.dirname(ours)
+    old = time.time() - compiled.PRUNE_AFTER - 60.0
+
+    def made(name: str, written: float | None = None) -> str:
+        path = os.path.join(parent, name)
+        os.makedirs(path)
+        with open(os.path.join(path, "index.nbi"), "w") as f:
+            f.write("cached")
+        if written is not None:
+            for entry in (os.path.join(path, "index.nbi"), path):
+                os.utime(entry, (written, written))
+        return path
+
+    stale = made("mfi_drake-0123456789abcdef", old)
+    recent = made("mfi_drake-fedcba9876543210")  # maybe compiling now
+    foreign = [made("numba-0123456789abcdef", old), made("mfi_drake-stale", old)]
+    shutil.rmtree(ours)
+    compiled._cache_class()(function)  # the first function of its stamp here
+    assert os.path.isdir(ours) and not os.path.exists(stale)
+    assert all(map(os.path.isdir, [recent, *foreign]))
+    # A stamp already there prunes nothing.
+    stale = made("mfi_drake-0123456789abcdef", old)
+    compiled._cache_class()(function)
+    assert os.path.isdir(stale)
 
 
 @pytest.mark.parametrize(

@@ -38,7 +38,8 @@ Two things make that sound where numba alone is not:
   machine code holds the clones it calls from the other modules: the stamp
   here is the hash of every maths module (`sources_digest`, which a
   cluster also compares between its machines), so an edit to any of them
-  compiles everything afresh.
+  compiles everything afresh. The first function of a new stamp removes
+  the other stamps' directories there (`_prune`).
 """
 
 import collections
@@ -46,6 +47,8 @@ import dataclasses
 import functools
 import math
 import os
+import shutil
+import time
 import types
 
 import numpy as np
@@ -151,8 +154,15 @@ def _cache_class() -> type:
             # A directory per stamp: an index written by other sources may
             # name what these no longer hold, and numba unpickles it whole
             # before it compares the stamps.
-            stamp = f"mfi_drake-{_sources_stamp()[:16]}"
+            stamp = f"{_STAMP_PREFIX}{_sources_stamp()[:16]}"
             return os.path.join(locator.get_cache_path(self), stamp)
+
+        def ensure_cache_path(self) -> None:
+            path = self.get_cache_path()
+            new = not os.path.isdir(path)
+            locator.ensure_cache_path(self)  # raises where it cannot write
+            if new:  # this stamp's first function here: the others' are stale
+                _prune(os.path.dirname(path), os.path.basename(path))
 
         return type(
             locator.__name__,
@@ -160,6 +170,7 @@ def _cache_class() -> type:
             {
                 "get_source_stamp": lambda self: _sources_stamp(),
                 "get_cache_path": get_cache_path,
+                "ensure_cache_path": ensure_cache_path,
             },
         )
 
@@ -173,6 +184,40 @@ def _cache_class() -> type:
         },
     )
     return type("StampedFunctionCache", (caching.FunctionCache,), {"_impl_class": impl})
+
+
+_STAMP_PREFIX = "mfi_drake-"  # a stamp's directory: this and 16 hex digits
+# Another stamp's directory is removed once nothing was written in it for
+# this long [s]: a process of other sources sharing the cache directory
+# (another checkout, with NUMBA_CACHE_DIR or the user's) may be compiling.
+PRUNE_AFTER = 600.0
+
+
+def _prune(parent: str, keep: str) -> None:
+    """Removes the directories of other stamps than `keep` from `parent`
+    (numba's cache directory of the maths; ~7 MB a stamp) where nothing was
+    written for PRUNE_AFTER seconds. Only directories named as stamps are:
+    numba's and Python's own files there stay."""
+    now = time.time()
+    for name in os.listdir(parent):
+        path = os.path.join(parent, name)
+        digits = name.removeprefix(_STAMP_PREFIX)
+        if (
+            name == keep
+            or not name.startswith(_STAMP_PREFIX)
+            or len(digits) != 16
+            or digits.strip("0123456789abcdef")
+            or os.path.islink(path)
+            or not os.path.isdir(path)
+        ):
+            continue
+        try:
+            files = [path, *(os.path.join(path, f) for f in os.listdir(path))]
+            written = max(map(os.path.getmtime, files))
+        except OSError:  # removed meanwhile
+            continue
+        if now - written > PRUNE_AFTER:
+            shutil.rmtree(path, ignore_errors=True)
 
 
 @functools.cache
