@@ -7,6 +7,7 @@ workers past Dask's allowed-failures. A refusal is one line, exit status 2,
 before anything flies, and leaves no output folder; a flight lost mid-run
 leaves the records already written whole."""
 
+import hashlib
 import json
 import os
 import socket
@@ -16,6 +17,7 @@ import dask
 import pytest
 
 from mfi_drake.app.cli import main
+from mfi_drake.maths import compiled
 from mfi_drake.studies import cluster as study_cluster
 from mfi_drake.studies import records as record_store
 
@@ -168,6 +170,24 @@ def test_workers_with_another_version_are_one_line(tmp_path, client_dir, capsys)
     finally:
         cluster.close()
     print(line)
+
+
+def test_the_probe_hashes_the_maths_as_the_compiled_cache_stamps_them(tmp_path):
+    """The probe a worker runs compares the hash that stamps the compiled
+    engine's cache (one function, `compiled.sources_digest`), and travels as
+    code: it names no maths module, which a worker may lack."""
+    import pickle
+
+    import cloudpickle
+
+    sent = cloudpickle.dumps(study_cluster._probe())
+    assert b"mfi_drake.maths" not in sent
+    assert pickle.loads(sent)()[1] == compiled._sources_stamp()[:12]
+    # Oracle: SHA-256 by hand of a directory of one module (and one not).
+    (tmp_path / "fields.py").write_text("x = 1\n")
+    (tmp_path / "notes.txt").write_text("not a module")
+    by_hand = hashlib.sha256(b"fields.py\0x = 1\n").hexdigest()
+    assert compiled.sources_digest(str(tmp_path)) == by_hand
 
 
 KILLER = """\

@@ -12,7 +12,7 @@ from mfi_drake.app.cli import main
 from mfi_drake.config.scenario import ScenarioError
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import LOG_LAYOUT, build_diagram, vehicle_scenarios
-from mfi_drake.flight.fleet import OneIntegratorFleet, check_one_integrator
+from mfi_drake.flight.fleet import OneIntegratorFleet, check_engine
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import compiled, fields, fleet
 from mfi_drake.maths.layout import ROTORS, STATE_SIZE
@@ -205,7 +205,6 @@ def test_a_fleet_on_one_integrator_stops_where_two_vehicles_touch():
     "change, method, named",
     [
         ({}, "mfi-nc", "method mfi-nc"),
-        ({}, "mfi-paper", "mfi_paper.smooth_goal_turn"),
         ({"sensor": "cameras"}, "mfi", "sensor"),
     ],
 )
@@ -217,7 +216,7 @@ def test_what_one_integrator_cannot_fly_is_refused_by_name(change, method, named
             [("cameras", "fleet_integration: one\nsensor: !DepthCamera {}")],
         )
     with pytest.raises(ScenarioError, match=named):
-        check_one_integrator(scene, [method])
+        check_engine(scene, [method])
 
 
 def test_run_refuses_a_method_one_integrator_cannot_fly_before_flying(capsys):

@@ -70,10 +70,9 @@ COMPILED_FIELDS = (
 def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
-    and eq 21 selector, with the smooth goal turn (eq 16–18's rotations are
-    not compiled, `maths.compiled`), or APF's or GF's field and attraction;
-    the sphere sensor, no moving obstacle, no faults, no point-cloud map; a
-    fleet with the relative velocity."""
+    and eq 21 selector (mfi, mfi-paper), or APF's or GF's field and
+    attraction; the sphere sensor, no moving obstacle, no faults, no
+    point-cloud map; a fleet with the relative velocity."""
     method = resolve_method(method)
     navigator, selector = method_systems(scenario, method)
     mfi = (
@@ -88,10 +87,8 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     ):
         return (
             f"method {method.name}: the compiled chain flies the fields of "
-            "mfi, apf and gf only"
+            "mfi, mfi-paper, apf and gf only"
         )
-    if mfi and not navigator.params.smooth_goal_turn:
-        return f"{method.parameters}.smooth_goal_turn = false: not compiled"
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
     if obstacles_move(scenario):
@@ -114,7 +111,7 @@ def method_systems(scenario: Scenario, method: Method) -> tuple:
     )
 
 
-def check_one_integrator(scenario: Scenario, methods: list) -> None:
+def check_engine(scenario: Scenario, methods: list) -> None:
     """Raises ScenarioError where `scenario` flies on the compiled engine
     (`flies_compiled`: a fleet on one integrator, or `engine: compiled`)
     and a method of `methods` cannot be flown so (`unsupported`)."""
@@ -135,7 +132,7 @@ class OneIntegratorFleet:
     """The diagram of the module docstring and its handles."""
 
     def __init__(self, scenario: Scenario, method: "str | Method"):
-        check_one_integrator(scenario, [method])
+        check_engine(scenario, [method])
         method = resolve_method(method)
         self.scenario, self.method = scenario, method.name
         self.vehicle = VEHICLES[scenario.vehicle]

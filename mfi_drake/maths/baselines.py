@@ -166,10 +166,4 @@ def gf_obstacle_field(
         return zero, zero
     n, r = closest
     S = gyroscopic_matrix(v, n, r, r_g, params)
-    return _matrix_vector(S, v), repulsive_field(n, r, params.eta, params.rho_0)
-
-
-def _matrix_vector(S: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """S v (`maths.compiled` writes it out: numba's matrix product needs
-    SciPy's BLAS)."""
-    return S @ v
+    return S @ v, repulsive_field(n, r, params.eta, params.rho_0)

@@ -13,12 +13,11 @@ run. A few helpers are swapped for their float forms:
 - `fields._zeros` and `fields._zero3` give float zeros;
 - `motion._length` is √(x² + y² + z²): numba's hypot takes two arguments
   (the two differ in the last bit);
-- `baselines._matrix_vector` (GF's S ṗ) is written out: numba's matrix
-  product needs SciPy's BLAS (BLAS sums in its own order: the two differ in
-  the last bit now and then);
-- `fields._paper_attraction`, eq 16–18 by rotation matrices (numba's matrix
-  product needs SciPy's BLAS), raises: a fleet whose parameters turn that
-  way is refused before it flies (`flight.fleet.unsupported`).
+- `so3._value` (an AutoDiffXd's float) is the identity.
+
+Matrix products (`@`: eq 16–18's rotations, GF's S ṗ) compile as they are:
+numba calls SciPy's BLAS, which sums as numpy's does (the same OpenBLAS
+kernels: measured equal to the last bit).
 
 Parameters travel as named tuples of a dataclass's fields (`record`): numba
 reads a named tuple's attributes as Python reads the dataclass's.
@@ -37,18 +36,19 @@ Two things make that sound where numba alone is not:
   (each field compiles its own chain) that a later process can name.
 - Numba stamps a cached function with its own file alone, while a clone's
   machine code holds the clones it calls from the other modules: the stamp
-  here is the hash of every module of MODULES and of this one, so an edit
-  to any of them compiles everything afresh.
+  here is the hash of every maths module (`sources_digest`, which a
+  cluster also compares between its machines), so an edit to any of them
+  compiles everything afresh. The first function of a new stamp removes
+  the other stamps' directories there (`_prune`).
 """
 
 import collections
 import dataclasses
 import functools
-import hashlib
-import inspect
 import math
 import os
-import sys
+import shutil
+import time
 import types
 
 import numpy as np
@@ -74,19 +74,6 @@ def _float_length(x, y, z):
     return math.sqrt(x * x + y * y + z * z)
 
 
-def _float_matrix_vector(S, v):
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = S[i, 0] * v[0] + S[i, 1] * v[1] + S[i, 2] * v[2]
-    return out
-
-
-def _not_compiled(v, l_a, l_g, K_omega):
-    if K_omega == K_omega:  # always; numba types the caller by the return below
-        raise ValueError("eq 16-18's rotation matrices are not compiled")
-    return (K_omega, K_omega, K_omega)
-
-
 FLOAT_FORMS = {
     "sqrt": math.sqrt,
     "cos": math.cos,
@@ -95,11 +82,10 @@ FLOAT_FORMS = {
     "arccos": math.acos,
     "atan2": math.atan2,
     "entries": _identity,
+    "_value": _identity,
     "_zeros": _float_zeros,
     "_zero3": _float_zero3,
     "_length": _float_length,
-    "_matrix_vector": _float_matrix_vector,
-    "_paper_attraction": _not_compiled,
 }
 
 
@@ -168,8 +154,15 @@ def _cache_class() -> type:
             # A directory per stamp: an index written by other sources may
             # name what these no longer hold, and numba unpickles it whole
             # before it compares the stamps.
-            stamp = f"mfi_drake-{_sources_stamp()[:16]}"
+            stamp = f"{_STAMP_PREFIX}{_sources_stamp()[:16]}"
             return os.path.join(locator.get_cache_path(self), stamp)
+
+        def ensure_cache_path(self) -> None:
+            path = self.get_cache_path()
+            new = not os.path.isdir(path)
+            locator.ensure_cache_path(self)  # raises where it cannot write
+            if new:  # this stamp's first function here: the others' are stale
+                _prune(os.path.dirname(path), os.path.basename(path))
 
         return type(
             locator.__name__,
@@ -177,6 +170,7 @@ def _cache_class() -> type:
             {
                 "get_source_stamp": lambda self: _sources_stamp(),
                 "get_cache_path": get_cache_path,
+                "ensure_cache_path": ensure_cache_path,
             },
         )
 
@@ -192,12 +186,61 @@ def _cache_class() -> type:
     return type("StampedFunctionCache", (caching.FunctionCache,), {"_impl_class": impl})
 
 
+_STAMP_PREFIX = "mfi_drake-"  # a stamp's directory: this and 16 hex digits
+# Another stamp's directory is removed once nothing was written in it for
+# this long [s]: a process of other sources sharing the cache directory
+# (another checkout, with NUMBA_CACHE_DIR or the user's) may be compiling.
+PRUNE_AFTER = 600.0
+
+
+def _prune(parent: str, keep: str) -> None:
+    """Removes the directories of other stamps than `keep` from `parent`
+    (numba's cache directory of the maths; ~7 MB a stamp) where nothing was
+    written for PRUNE_AFTER seconds. Only directories named as stamps are:
+    numba's and Python's own files there stay."""
+    now = time.time()
+    for name in os.listdir(parent):
+        path = os.path.join(parent, name)
+        digits = name.removeprefix(_STAMP_PREFIX)
+        if (
+            name == keep
+            or not name.startswith(_STAMP_PREFIX)
+            or len(digits) != 16
+            or digits.strip("0123456789abcdef")
+            or os.path.islink(path)
+            or not os.path.isdir(path)
+        ):
+            continue
+        try:
+            files = [path, *(os.path.join(path, f) for f in os.listdir(path))]
+            written = max(map(os.path.getmtime, files))
+        except OSError:  # removed meanwhile
+            continue
+        if now - written > PRUNE_AFTER:
+            shutil.rmtree(path, ignore_errors=True)
+
+
 @functools.cache
 def _sources_stamp() -> str:
-    """The hash of the source of every module of MODULES and of this one."""
+    """`sources_digest` of this package's maths (MODULES and this one among
+    them)."""
+    return sources_digest(os.path.dirname(os.path.abspath(__file__)))
+
+
+def sources_digest(maths: str) -> str:
+    """The SHA-256 of the maths sources in the directory `maths` (every .py
+    file there, by name and bytes): what the compiled engine compiles. It
+    imports nothing of the package, so that a copy of it can run where
+    another mfi_drake is installed (`studies.cluster`'s probe of workers);
+    a missing directory hashes as an empty one."""
+    import hashlib
+    import os
+
     digest = hashlib.sha256()
-    for module in (*MODULES, sys.modules[__name__]):
-        digest.update(inspect.getsource(module).encode())
+    for name in sorted(os.listdir(maths)) if os.path.isdir(maths) else ():
+        if name.endswith(".py"):
+            with open(os.path.join(maths, name), "rb") as f:
+                digest.update(name.encode() + b"\0" + f.read())
     return digest.hexdigest()
 
 

@@ -110,15 +110,15 @@ def rotation_from_reference(r_ref: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 # Fallback reference vectors r_ref for eq 16, in order of preference, used
 # only when v and r_g point (nearly) opposite ways.
-_REFERENCE_CANDIDATES = np.array(
-    [
-        [0.0, 0.0, -1.0],
-        [0.0, 0.0, 1.0],
-        [1.0, 0.0, 0.0],
-        [-1.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0],
-        [0.0, -1.0, 0.0],
-    ]
+# Triples, not an array: numba reads a global array as read-only, of
+# another type than the bisector's array `reference_axis` also returns.
+_REFERENCE_CANDIDATES = (
+    (0.0, 0.0, -1.0),
+    (0.0, 0.0, 1.0),
+    (1.0, 0.0, 0.0),
+    (-1.0, 0.0, 0.0),
+    (0.0, 1.0, 0.0),
+    (0.0, -1.0, 0.0),
 )
 # Minimum 1 + cos φ accepted for a fallback. With 0.3 one of the six always
 # qualifies for any pair of unit vectors (a unit vector has at most two
@@ -128,7 +128,7 @@ _REFERENCE_MARGIN = 0.3
 _BISECTOR_MIN = 0.1
 
 
-def _bisector(a: list, g: list) -> list | None:
+def _bisector(a, g) -> tuple | None:
     """(a + g)/|a + g| for the entries of unit vectors a and g, on Python
     scalars (cheaper than numpy on 3-vectors); None when |a + g| ≤
     _BISECTOR_MIN, where it is undefined for eq 16."""
@@ -136,7 +136,7 @@ def _bisector(a: list, g: list) -> list | None:
     size = sqrt(b0 * b0 + b1 * b1 + b2 * b2)
     if size <= _BISECTOR_MIN:
         return None
-    return [b0 / size, b1 / size, b2 / size]
+    return (b0 / size, b1 / size, b2 / size)
 
 
 def reference_axis(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray:
@@ -152,13 +152,14 @@ def reference_axis(l_a: np.ndarray, l_g: np.ndarray) -> np.ndarray:
     """
     bisector = _bisector(entries(l_a), entries(l_g))
     if bisector is not None:
-        return np.array(bisector)
+        b0, b1, b2 = bisector  # (numba: unpacking takes the tuple out of None's)
+        return np.array([b0, b1, b2])
     for r_ref in _REFERENCE_CANDIDATES:
         if (
             1.0 + dot(r_ref, l_a) >= _REFERENCE_MARGIN
             and 1.0 + dot(r_ref, l_g) >= _REFERENCE_MARGIN
         ):
-            return r_ref
+            return np.array(r_ref)
     raise AssertionError("unreachable: some axis always qualifies")
 
 
@@ -237,7 +238,7 @@ def rotation_vector(R: np.ndarray) -> np.ndarray:
       vee(R − Rᵀ) (or, exactly at π, to make a's largest entry positive).
     """
     # Entry by entry, on Python scalars (cheaper than small-array operations).
-    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R.tolist()
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = entries(R)
     c = (r00 + r11 + r22 - 1.0) / 2.0
     if c > 1.0:
         c = 1.0 + 0.0 * c
@@ -257,7 +258,7 @@ def rotation_vector(R: np.ndarray) -> np.ndarray:
     # Near π: a aᵀ = (S − c I) / (1 − c).
     S = (R + R.T) / 2.0
     B = (S - c * np.eye(3)) / (1.0 - c)
-    j = int(np.argmax([float(_value(B[i, i])) for i in range(3)]))
+    j = int(np.argmax(np.array([float(_value(B[i, i])) for i in range(3)])))
     a = B[:, j] / np.sqrt(B[j, j])
     s = [s0, s1, s2]
     if (

@@ -9,10 +9,12 @@ import logging
 import os
 import sys
 import time
+import types
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 from mfi_drake.flight.methods import METHODS, MethodError, import_field
+from mfi_drake.maths.compiled import sources_digest
 
 # What the local workers' fork server imports once (`dask_client`): the
 # sweep's module, whose tasks every study runs (Drake, the simulation, the
@@ -277,15 +279,16 @@ def _import_problem(methods: Sequence[str]) -> str | None:
 
 def _probe() -> Callable[[], tuple[str, str] | None]:
     """The function that tells which mfi_drake a process has: None without
-    one, else its __version__ and a hash of its maths modules' sources
-    (what the compiled engine compiles: a worker must compile the client's).
-    Defined in this function, so that cloudpickle sends its code rather than
-    its name in this module, which a process without the package, or with
+    one, else its __version__ and the hash of its maths sources
+    (`compiled.sources_digest`, the compiled engine's cache stamp: a worker
+    must compile the client's). Defined in this function, and with a copy
+    of `sources_digest`, so that cloudpickle sends their code rather than
+    their names in modules that a process without the package, or with
     another version of it, may not import; it imports no more of the
     package than its __init__."""
+    digest = types.FunctionType(sources_digest.__code__, {})
 
     def installed() -> tuple[str, str] | None:
-        import hashlib
         import importlib
         import os
 
@@ -294,13 +297,8 @@ def _probe() -> Callable[[], tuple[str, str] | None]:
         except ImportError:
             return None
         maths = os.path.join(os.path.dirname(package.__file__), "maths")
-        digest = hashlib.sha256()
-        for name in sorted(os.listdir(maths)) if os.path.isdir(maths) else ():
-            if name.endswith(".py"):
-                with open(os.path.join(maths, name), "rb") as f:
-                    digest.update(name.encode() + b"\0" + f.read())
         version = getattr(package, "__version__", "without __version__")
-        return version, digest.hexdigest()[:12]
+        return version, digest(maths)[:12]
 
     return installed
 

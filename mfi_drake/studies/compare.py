@@ -8,7 +8,7 @@ from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.flight.fleet import check_one_integrator
+from mfi_drake.flight.fleet import check_engine
 from mfi_drake.flight.methods import DEFAULT_METHODS, METHODS, Method, appearance
 from mfi_drake.flight.result import Flight, outcome
 from mfi_drake.flight.simulation import simulate
@@ -24,7 +24,7 @@ def compare(
 ) -> list[Flight]:
     """Flies `scenario` once with each method (a fleet on one integrator:
     after checking that it can fly every one)."""
-    check_one_integrator(scenario, methods)
+    check_engine(scenario, methods)
     return [simulate(scenario, method) for method in methods]
 
 

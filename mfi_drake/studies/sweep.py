@@ -65,7 +65,7 @@ from mfi_drake.config.scenario import DepthCamera, Scenario, SphereSensor
 from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_json, write_text
-from mfi_drake.flight.fleet import check_one_integrator
+from mfi_drake.flight.fleet import check_engine
 from mfi_drake.flight.methods import DEFAULT_METHODS, resolve_method
 from mfi_drake.flight.result import outcome
 from mfi_drake.flight.simulation import simulate
@@ -320,7 +320,7 @@ def run_sweep(
             scenario = field_to_fly(config, tasks, modify, key)
             if not fields:
                 validate_scenario(scenario, scenario.name)
-                check_one_integrator(scenario, config.methods)
+                check_engine(scenario, config.methods)
             fields[field_key] = scenario
             texts[field_key] = scenario_to_yaml(scenario)
             if field_key not in known:
