@@ -166,7 +166,7 @@ def cmd_sweep(args) -> int:
     from mfi_drake.studies.cluster import ClusterError, dask_client
     from mfi_drake.studies.fleet_sweep import FLEET, fleet_table, fleet_variant
     from mfi_drake.studies.stats import summary_table
-    from mfi_drake.studies.sweep import field_to_fly, run_sweep
+    from mfi_drake.studies.sweep import SINGLE, default_engine, field_to_fly, run_sweep
     from mfi_drake.studies.variants import (
         goal_variant,
         layered,
@@ -204,6 +204,8 @@ def cmd_sweep(args) -> int:
     if fleet:
         config.variant = fleet_variant(args.vehicles, config.variant)
     modify = partial(layered, overrides=texts, faults=faults)
+    if tasks is SINGLE:  # fleets fly on one integrator where it applies
+        modify = default_engine(config, tasks, modify)
     # The first field with every layer, checked before a cluster starts or
     # anything is written (run_sweep checks it too, for the API's callers).
     first = field_to_fly(config, tasks, modify, config.flight_keys()[0])

@@ -65,7 +65,7 @@ from mfi_drake.config.scenario import DepthCamera, Scenario, SphereSensor
 from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_json, write_text
-from mfi_drake.flight.fleet import check_engine
+from mfi_drake.flight.fleet import check_engine, unsupported
 from mfi_drake.flight.methods import DEFAULT_METHODS, resolve_method
 from mfi_drake.flight.result import outcome
 from mfi_drake.flight.simulation import simulate
@@ -183,6 +183,7 @@ def fly_field(scenario_yaml: str, method: str, reference: dict) -> dict:
         ratio = m["path_length"] / reference["reference_length"]
     keep = ["reached", "collided", "path_length", "convergence_time"]
     keep += ["min_clearance", "final_error", "sim_time", "wall_time", "steps"]
+    keep += ["engine"]  # the one that flew (`default_engine`)
     result = {"outcome": outcome(m), "path_ratio": ratio}
     return record | result | {k: m[k] for k in keep}
 
@@ -390,3 +391,33 @@ def field_to_fly(
     if modify is None:
         return scenario
     return generator.self_contained(modify(scenario))
+
+
+def _compiled_under(
+    scenario: Scenario, modify: Callable[[Scenario], Scenario] | None
+) -> Scenario:
+    compiled = dataclasses.replace(scenario, engine="compiled")
+    return compiled if modify is None else modify(compiled)
+
+
+def default_engine(
+    config: SweepConfig,
+    tasks: Tasks,
+    modify: Callable[[Scenario], Scenario] | None,
+) -> Callable[[Scenario], Scenario] | None:
+    """`modify` with `engine: compiled` layered under it, where no layer of
+    `modify` names an engine and every method of `config` flies the first
+    field on the compiled engine (`flight.fleet.unsupported`: not mfi-nc,
+    cameras, moving obstacles, faults, maps, user fields); else `modify`.
+    `sweep`'s default. The engines fly the same flights (benchmarks/
+    engines.py), so the variant and the records' keys do not name it."""
+    first = field_to_fly(config, tasks, None, config.flight_keys()[0])
+    systems = first if modify is None else modify(first)
+    if first.engine != "systems" or systems.engine != "systems":
+        return modify  # the field or a layer names the engine
+    compiled = generator.self_contained(_compiled_under(first, modify))
+    if compiled.engine != "compiled" or any(
+        unsupported(compiled, method) for method in config.methods
+    ):
+        return modify
+    return functools.partial(_compiled_under, modify=modify)
