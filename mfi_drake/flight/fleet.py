@@ -20,6 +20,8 @@ compiled engine (`flies_compiled`), the same chain as the card's diagram of
 LeafSystems (`engine: systems`, `flight.diagram`) in one system.
 """
 
+import dataclasses
+
 from pydrake.geometry import SceneGraph
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import (
@@ -100,6 +102,14 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     if scenario.other_vehicles and not scenario.relative_velocity.enabled:
         return "relative_velocity.enabled = false: one integrator flies with it"
     return None
+
+
+def on_compiled(scenario: Scenario, methods: list) -> Scenario | None:
+    """`scenario` on the compiled engine, or None where a method of
+    `methods` cannot be flown there (`unsupported`): what `sweep` and
+    `tune` fly by default (the engines fly the same flights)."""
+    compiled = dataclasses.replace(scenario, engine="compiled")
+    return None if any(unsupported(compiled, m) for m in methods) else compiled
 
 
 def method_systems(scenario: Scenario, method: Method) -> tuple:

@@ -65,7 +65,7 @@ from mfi_drake.config.scenario import DepthCamera, Scenario, SphereSensor
 from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_json, write_text
-from mfi_drake.flight.fleet import check_engine, unsupported
+from mfi_drake.flight.fleet import check_engine, on_compiled
 from mfi_drake.flight.methods import DEFAULT_METHODS, resolve_method
 from mfi_drake.flight.result import outcome
 from mfi_drake.flight.simulation import simulate
@@ -416,8 +416,6 @@ def default_engine(
     if first.engine != "systems" or systems.engine != "systems":
         return modify  # the field or a layer names the engine
     compiled = generator.self_contained(_compiled_under(first, modify))
-    if compiled.engine != "compiled" or any(
-        unsupported(compiled, method) for method in config.methods
-    ):
+    if compiled.engine != "compiled" or not on_compiled(compiled, config.methods):
         return modify
     return functools.partial(_compiled_under, modify=modify)

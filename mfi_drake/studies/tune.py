@@ -56,13 +56,16 @@ import numpy as np
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.scenario_yaml import read_override, scenario_to_yaml
 from mfi_drake.files import write_json, write_text
+from mfi_drake.flight.fleet import on_compiled
 from mfi_drake.flight.methods import Gain, Method, resolve_method
 from mfi_drake.studies.cluster import ClusterError, Task, run_tasks
 from mfi_drake.studies.compare import PAPER_SCENARIOS
 from mfi_drake.studies.records import ResultsFile, read_results
 from mfi_drake.studies.sweep import (
+    SINGLE,
     SweepConfig,
     SweepRun,
+    default_engine,
     field_reference,
     fly_field,
     make_field,
@@ -337,6 +340,7 @@ def held_out_sweep(
         variant=override_variant([tuned]),
     )
     modify = partial(with_overrides, overrides=[tuned])
+    modify = default_engine(held_out, SINGLE, modify)
     return run_sweep(held_out, client, modify, progress_stream)
 
 
@@ -421,6 +425,7 @@ def _evaluate(client, method, batch, fields, texts, references, done, record):
                 candidate.records.append(known[key])
                 continue
             layered = with_overrides(scenario, [("tune", override)])
+            layered = on_compiled(layered, [method.name]) or layered
             task = Task(
                 f"tune-{method.name}-{candidate.index}-{scenario.name}",
                 fly_field,
