@@ -65,11 +65,15 @@ HIT = slice(3, 6)  # H, where the current traversal began
 D_HIT, AXIS, SIGN, AWAY = 6, 7, 8, 9  # AWAY: 2·loop_radius from H since
 SURFACE = slice(10, 13)  # the followed surface's last closest point
 SURFACE_SEEN = 13  # 1 once SURFACE holds a point
-RING_NEXT = 14  # the ring's next slot
-RING = 15  # HITS rows of [x, y, z, next axis]
+# The followed surface's closest point where the current axis's traversal
+# began (inf: none seen there): a loop closes only back on that surface.
+HIT_SURFACE = slice(14, 17)
+RING_NEXT = 17  # the ring's next slot
+RING = 18  # HITS rows of [x, y, z, next axis]
 MEMORY_SIZE = RING + 4 * HITS
 
 E_Z = np.array([0.0, 0.0, 1.0])
+ON_GROUND = 1e-3  # m: a reading whose point lies this near the ground is the ground's
 SWITCH = 0.25  # m, see followed_point
 # Two surfaces whose normals are further apart than 135° are the two sides of
 # a gap (a door, a corridor), which the vehicle passes along; nearer, they
@@ -132,7 +136,12 @@ def axis(memory: np.ndarray, goal: np.ndarray) -> np.ndarray:
 
 
 def followed_point(
-    memory: np.ndarray, obstacle, p: np.ndarray, a: np.ndarray, near: float
+    memory: np.ndarray,
+    obstacle,
+    p: np.ndarray,
+    a: np.ndarray,
+    near: float,
+    ground: float | None = None,
 ):
     """The closest point (world frame) of the followed surface: among the
     seen readings whose direction is not within 45° of ±a (walls, not the
@@ -141,12 +150,19 @@ def followed_point(
     (the hugged distance of centre) or `SWITCH` nearer than that one, and
     the vehicle is not between the two (normals more than 90° apart): a
     wall ahead takes over at a concave corner, and at a doorway the jamb
-    being rounded is kept, not the far one. The nearest where none is
-    remembered; None if there is no candidate."""
+    being rounded is kept, not the far one. The ground (height `ground`,
+    None: none) is never followed: an endless plane cannot be gone round.
+    The nearest where none is remembered; None if there is no candidate."""
     points = []
     for r_o, seen in readings(obstacle):
         distance = np.linalg.norm(r_o)
-        if seen > 0.5 and distance > 1e-9 and abs(r_o @ a) < math.sqrt(0.5) * distance:
+        grounded = ground is not None and p[2] + r_o[2] <= ground + ON_GROUND
+        if (
+            seen > 0.5
+            and distance > 1e-9
+            and abs(r_o @ a) < math.sqrt(0.5) * distance
+            and not grounded
+        ):
             points.append((distance, p + r_o))
     if not points:
         return None
@@ -226,7 +242,7 @@ def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
     return False
 
 
-def _start_traversal(memory, p, v, obstacle, goal, near, params) -> None:
+def _start_traversal(memory, p, v, obstacle, goal, near, params, ground) -> None:
     """A trap at p: remember the hit point and pick its axis and sign."""
     ring = memory[RING : RING + 4 * HITS].reshape(HITS, 4)
     gaps = np.linalg.norm(ring[:, :3] - p, axis=1)
@@ -238,30 +254,37 @@ def _start_traversal(memory, p, v, obstacle, goal, near, params) -> None:
     k = int(ring[slot, 3])
     memory[HIT] = p
     memory[D_HIT] = memory[D_BEST]
-    memory[AWAY] = memory[SURFACE_SEEN] = 0.0
-    memory[AXIS] = k
+    memory[SURFACE_SEEN] = 0.0
+    memory[AXIS] = min(k, AXES - 1)
     memory[SIGN] = 1.0
-    if k >= AXES:
-        memory[PHASE] = TRAPPED
-        return
     memory[PHASE] = FOLLOW
     # The sign that continues the vehicle's motion round the surface.
-    q = followed_point(memory, obstacle, p, axis(memory, goal), near)
+    q = followed_point(memory, obstacle, p, axis(memory, goal), near, ground)
     if q is not None:
         tangent = np.cross(axis(memory, goal), q - p)
         memory[SIGN] = -1.0 if tangent @ v < 0.0 else 1.0
+    _begin_axis(memory, k, p, obstacle, goal, near, ground)
 
 
-def _next_axis(memory: np.ndarray) -> None:
-    """The traversal closed a loop round H: take the next axis."""
+def _begin_axis(memory, k, p, obstacle, goal, near, ground) -> None:
+    """Traversal of the current hit point about axis k (TRAPPED from AXES
+    on), which the ring remembers as the point's axis to resume. Above a
+    ground, an axis whose tangent at p points down is skipped: "under" a
+    surface standing on the ground is impossible."""
     ring = memory[RING : RING + 4 * HITS].reshape(HITS, 4)
-    k = int(memory[AXIS]) + 1
     slot = int(np.argmin(np.linalg.norm(ring[:, :3] - memory[HIT], axis=1)))
-    ring[slot, 3] = k
-    memory[AXIS] = k
     memory[AWAY] = 0.0
-    if k >= AXES:
-        memory[PHASE] = TRAPPED
+    memory[HIT_SURFACE] = np.inf
+    for each in range(k, AXES):
+        memory[AXIS] = ring[slot, 3] = each
+        q = followed_point(memory, obstacle, p, axis(memory, goal), near, ground)
+        if q is None:
+            return
+        if not _into_ground(memory, p, q, goal, ground):
+            memory[HIT_SURFACE] = q
+            return
+    memory[AXIS] = ring[slot, 3] = AXES
+    memory[PHASE] = TRAPPED
 
 
 def update_memory(
@@ -273,9 +296,11 @@ def update_memory(
     goal: np.ndarray,
     collision_radius: float,
     params: EscapeParams,
+    ground: float | None = None,
 ) -> np.ndarray:
     """The memory after one step at time t, position p, velocity v and the
-    readings `obstacle` (see the module docstring); a new array."""
+    readings `obstacle`, above the ground at height `ground` (None: no
+    ground; see the module docstring); a new array."""
     near = collision_radius + params.follow_distance
     memory = memory.copy()
     phase = memory[PHASE]
@@ -287,20 +312,54 @@ def update_memory(
         if d < memory[D_BEST] - params.progress:
             memory[D_BEST], memory[T_BEST] = d, t
         elif t - memory[T_BEST] > params.stall_time:
-            _start_traversal(memory, p, v, obstacle, goal, near, params)
+            _start_traversal(memory, p, v, obstacle, goal, near, params, ground)
         return memory
     if d < memory[D_HIT] - params.leave_margin and not goal_hidden(obstacle, r_g):
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
+    q = followed_point(memory, obstacle, p, axis(memory, goal), near, ground)
+    if q is not None:
+        memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
     gone = np.linalg.norm(p - memory[HIT])
     if gone > 2.0 * params.loop_radius:
         memory[AWAY] = 1.0
-    elif memory[AWAY] and gone < params.loop_radius:
-        _next_axis(memory)
-    q = followed_point(memory, obstacle, p, axis(memory, goal), near)
-    if q is not None:
-        memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
+    elif (
+        memory[AWAY]
+        and gone < params.loop_radius
+        and _on_hit_surface(memory, params.loop_radius)
+    ):
+        _begin_axis(memory, int(memory[AXIS]) + 1, p, obstacle, goal, near, ground)
+    elif (
+        q is not None
+        and _into_ground(memory, p, q, goal, ground)
+        and p[2] - ground < near
+    ):
+        # Circulating in a vertical plane, the vehicle has come down to the
+        # ground and the way on is through it: the axis is exhausted.
+        _begin_axis(memory, int(memory[AXIS]) + 1, p, obstacle, goal, near, ground)
     return memory
+
+
+def _into_ground(memory, p, q, goal, ground) -> bool:
+    """Whether the traversal's tangent a × n at p, the followed point q,
+    leads down above a ground: on a horizontal axis (k ≥ 2: circulation in a
+    vertical plane) that is "under", impossible for a surface standing on
+    the ground, and the ground itself cannot be gone round."""
+    if ground is None or memory[AXIS] < 2:
+        return False
+    return bool(np.cross(axis(memory, goal), q - p)[2] < 0.0)
+
+
+def _on_hit_surface(memory: np.ndarray, radius: float) -> bool:
+    """Whether the followed surface is the one followed where the axis's
+    traversal began (its closest point within `radius` of that one's;
+    true where either is unknown): back near H on the opposite wall of a
+    corridor is not a loop round the surface (Bug's loop returns to H along
+    the boundary it left by)."""
+    start = memory[HIT_SURFACE]
+    if not memory[SURFACE_SEEN] or not np.isfinite(start).all():
+        return True
+    return bool(np.linalg.norm(memory[SURFACE] - start) < radius)
 
 
 def subgoal(
@@ -310,6 +369,7 @@ def subgoal(
     goal: np.ndarray,
     collision_radius: float,
     params: EscapeParams,
+    ground: float | None = None,
 ) -> np.ndarray:
     """The point MFI steers to: the goal, or while following, `lookahead`
     ahead along u = t + κ (r − r_f) n (see the module docstring)."""
@@ -317,7 +377,7 @@ def subgoal(
         return goal
     a = axis(memory, goal)
     near = collision_radius + params.follow_distance
-    q = followed_point(memory, obstacle, p, a, near)
+    q = followed_point(memory, obstacle, p, a, near, ground)
     if q is None:
         if not memory[SURFACE_SEEN]:
             return goal
