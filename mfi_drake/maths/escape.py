@@ -323,19 +323,19 @@ def update_memory(
     gone = np.linalg.norm(p - memory[HIT])
     if gone > 2.0 * params.loop_radius:
         memory[AWAY] = 1.0
-    elif (
+    looped = (
         memory[AWAY]
         and gone < params.loop_radius
         and _on_hit_surface(memory, params.loop_radius)
-    ):
-        _begin_axis(memory, int(memory[AXIS]) + 1, p, obstacle, goal, near, ground)
-    elif (
+    )
+    # Circulating in a vertical plane, the vehicle has come down to the
+    # ground and the way on is through it: the axis is exhausted too.
+    grounded = (
         q is not None
         and _into_ground(memory, p, q, goal, ground)
         and p[2] - ground < near
-    ):
-        # Circulating in a vertical plane, the vehicle has come down to the
-        # ground and the way on is through it: the axis is exhausted.
+    )
+    if looped or grounded:
         _begin_axis(memory, int(memory[AXIS]) + 1, p, obstacle, goal, near, ground)
     return memory
 
