@@ -391,3 +391,15 @@ def test_no_axis_goes_under_a_surface_on_the_ground():
 
     assert descend(1.5)[escape.PHASE] == escape.FOLLOW
     assert descend(0.5)[escape.PHASE] == escape.TRAPPED
+
+
+def test_outside_the_hugging_circle_the_subgoal_is_along_its_tangent():
+    """The followed point 2 (R + r_f) ahead (+x) at the goal's height, about
+    +e_z: the tangent from p to the circle of radius R + r_f round it makes
+    asin(1/2) = 30° with n = e_x, toward t = e_z × e_x = e_y."""
+    p = np.array([5.0, 0.0, 2.0])
+    memory = stalled(p=tuple(p), v=(0.0, 1.0, 0.0))
+    far = obstacle_signal([np.array([2.0 * (RADIUS + RULE.follow_distance), 0, 0])])
+    target = escape.subgoal(memory, p, far, GOAL, RADIUS, RULE)
+    u = np.array([np.cos(np.radians(30.0)), 0.5, 0.0])
+    assert target == pytest.approx(p + RULE.lookahead * u)

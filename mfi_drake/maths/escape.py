@@ -19,14 +19,20 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   the obstacle (the picture of MFI; Ataka et al., Front. Robot. AI 9, 2022,
   doi 10.3389/frobt.2022.834177, keep a current's direction to get round
   concave obstacles): its subgoal lies `lookahead` ahead along
-  u = t + κ (r − r_f) n + κ ((p_g − p)·â) â, t = a × n / |a × n|, where n
-  points to the followed surface's closest point (the nearest reading not
-  within 45° of ±a, else the last one remembered) at clearance r, so that
-  it hugs the surface at r_f and the plane ⟂ a through the goal (the
-  goal's height for ±e_z), each pull clipped at 1. The first axis is
-  ±e_z, the sign that continues the vehicle's motion (it goes round
-  horizontally the way it was going); then −that; then the horizontal
-  axis ⟂ the goal direction, both signs (over and under).
+  u = s + κ ((p_g − p)·â) â, where n points to the followed surface's
+  closest point (the nearest reading not within 45° of ±a and not the
+  ground, else the last one remembered) at centre distance d, t = a × n /
+  |a × n|, ρ = R + r_f, and s = cos β n + sin β t with sin β = ρ/d outside
+  the circle of radius ρ round that point (the tangent to it: an edge is
+  rounded at r_f), s = t + κ (d − ρ) n inside it; the plane ⟂ a through
+  the goal (the goal's height for ±e_z) is hugged, its pull clipped at 1.
+  The first axis is ±e_z, the sign that continues the vehicle's motion
+  (it goes round horizontally the way it was going); then −that; then the
+  horizontal axis ⟂ the goal direction, both signs (over and under).
+- The ground (its height, where the world has one) is never followed, and
+  on a horizontal axis a traversal whose tangent leads down into it is
+  skipped where it begins ("under" a surface on the ground) and exhausted
+  where it comes down to within ρ of it.
 - Corner brake (any phase): in a concave corner eq 19's setpoint keeps
   the closing speed toward each surface below c·r (`corner_speed`,
   `corner_rate`).
@@ -34,14 +40,16 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   hides the goal (3DBug's leaving condition, with the tangent plane at the
   closest point as the local range data).
 - Loop: back within `loop_radius` of H after having been 2·loop_radius
-  away, the axis is exhausted and the next one is taken; a new trap within
+  away, following the surface followed where the axis began (closest
+  points within `loop_radius`: not the opposite wall of a corridor), the
+  axis is exhausted and the next one is taken; a new trap within
   `revisit_radius` of a remembered hit point resumes at that point's next
   axis. When all four axes are exhausted the goal is declared unreachable:
   the phase is TRAPPED for good (3DBug: a loop without a leave ends the
   search).
 
-The memory (`MEMORY_SIZE` floats, a fixed layout below) is bounded in size
-by construction, and in age: the progress record spans at most
+The memory (`MEMORY_SIZE` = 34 floats, a fixed layout below) is bounded in
+size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
 """
 
@@ -90,7 +98,8 @@ class EscapeParams:
     - stall_time [s], progress [m]: a trap is no gain of `progress` in the
       best distance to the goal for `stall_time`.
     - follow_distance [m] (r_f), hug [1/m] (κ), lookahead [m]: the subgoal
-      lies `lookahead` ahead along t + κ (r − r_f) n.
+      lies `lookahead` ahead of the way round the surface at clearance r_f
+      (κ: the pull out where nearer, and toward the goal's plane).
     - follow_speed [m/s]: eq 19's v_d while following.
     - leave_margin [m]: leave only this much nearer the goal than at H.
     - loop_radius [m]: back this near H after 2·loop_radius away closes a
@@ -372,7 +381,7 @@ def subgoal(
     ground: float | None = None,
 ) -> np.ndarray:
     """The point MFI steers to: the goal, or while following, `lookahead`
-    ahead along u = t + κ (r − r_f) n (see the module docstring)."""
+    ahead along u = s + κ ((p_g − p)·â) â (see the module docstring)."""
     if memory[PHASE] != FOLLOW:
         return goal
     a = axis(memory, goal)
@@ -389,8 +398,16 @@ def subgoal(
     size = np.linalg.norm(t)
     if size < 1e-6:
         return goal
-    r = distance - collision_radius
-    pull = max(-1.0, min(1.0, params.hug * (r - params.follow_distance)))
+    if distance > near:
+        # Outside the circle of radius R + r_f round the followed point:
+        # along the tangent from p to that circle, angle asin(near/|r_o|)
+        # off n, so that an edge (a door's jamb) is rounded at r_f, not
+        # cut wide as a fixed pull lagging behind the turning n would.
+        beta = math.asin(near / distance)
+        surface = math.cos(beta) * n + math.sin(beta) * t / size
+    else:
+        pull = max(-1.0, params.hug * (distance - near))
+        surface = t / size + pull * n
     # The plane ⟂ a through the goal is hugged as the surface is, with the
     # same κ: circulating about ±e_z the vehicle keeps to the goal's height;
     # about a horizontal axis, to the vertical plane through H and the goal
@@ -398,5 +415,5 @@ def subgoal(
     # can stand in for the wall it follows and hide a door.
     unit = a / np.linalg.norm(a)
     level = max(-1.0, min(1.0, params.hug * ((goal - p) @ unit)))
-    u = t / size + pull * n + level * unit
+    u = surface + level * unit
     return p + params.lookahead * u / np.linalg.norm(u)

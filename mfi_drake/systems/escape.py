@@ -20,7 +20,9 @@ it does no work. Eq 19's setpoint is the rule's follow_speed while
 following and, in any phase, at most `escape.corner_speed` in a concave
 corner (the corner brake, `EscapeParams.corner_brake`): "obstacle_force"
 adds F_v(setpoint) − F_v(v_d), which brakes along −l_a.
-"obstacle_force_terms" holds [F, F_a + redirection + brake].
+"obstacle_force_terms" holds [F, F_a + redirection + brake]. The ground's
+height (`ground`, None without one) tells the rule which reading is the
+ground: never followed, and nothing goes under it.
 Float only: `analyze` linearises the memoryless chain (`MfiNavigator`).
 """
 
