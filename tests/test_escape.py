@@ -434,20 +434,3 @@ def test_outside_the_hugging_circle_the_subgoal_is_along_its_tangent():
     target = escape.subgoal(memory, p, far, GOAL, RADIUS, RULE)
     u = np.array([np.cos(np.radians(30.0)), 0.5, 0.0])
     assert target == pytest.approx(p + RULE.lookahead * u)
-
-
-def test_in_a_gap_narrower_than_twice_the_hug_its_middle_is_hugged():
-    """Following the wall at +x (0.6 m) with one across at −x (0.4 m): a
-    1 m gap, so ρ = (0.6 + 0.4)/2 = 0.5 m and the subgoal lies along the
-    tangent to the circle of 0.5 m, asin(0.5/0.6) off n = e_x toward e_y.
-    Alone, the wall at 0.6 m is inside ρ = R + r_f: pushed out, not in."""
-    p = np.array([5.0, 0.0, 2.0])
-    memory = stalled(p=tuple(p), v=(0.0, 1.0, 0.0))
-    memory[escape.SURFACE], memory[escape.SURFACE_SEEN] = [5.6, 0.0, 2.0], 1.0
-    gap = obstacle_signal([np.array([-0.4, 0.0, 0.0]), np.array([0.6, 0.0, 0.0])])
-    beta = np.arcsin(0.5 / 0.6)
-    u = np.array([np.cos(beta), np.sin(beta), 0.0])
-    target = escape.subgoal(memory, p, gap, GOAL, RADIUS, RULE)
-    assert target == pytest.approx(p + RULE.lookahead * u)
-    alone = escape.subgoal(memory, p, WALL, GOAL, RADIUS, RULE)
-    assert (alone - p)[0] < 0.0

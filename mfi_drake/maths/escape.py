@@ -398,12 +398,6 @@ def subgoal(
     size = np.linalg.norm(t)
     if size < 1e-6:
         return goal
-    # Between the followed surface and one across a gap (normals more than
-    # 90° apart) narrower than 2 (R + r_f), a door, the gap's middle line is
-    # hugged instead: half the sum of the two distances.
-    for r_s, seen in readings(obstacle):
-        if seen > 0.5 and r_s @ n < 0.0:
-            near = min(near, (distance + float(np.linalg.norm(r_s))) / 2.0)
     if distance > near:
         # Outside the circle of radius R + r_f round the followed point:
         # along the tangent from p to that circle, angle asin(near/|r_o|)
