@@ -160,7 +160,12 @@ METHODS["mfi-nc"] = replace(
     colour="darkgoldenrod",
     in_defaults=False,  # a first stage (docs/nonconvex.md), not yet tuned
     navigator=lambda s, vehicle: EscapeNavigator(
-        s.navigator, _goal(s), vehicle.collision_radius, vehicle.mass, s.escape
+        s.navigator,
+        _goal(s),
+        vehicle.collision_radius,
+        vehicle.mass,
+        s.escape,
+        None if s.ground is None else s.ground.height,
     ),
 )
 # The methods flown where none is named.

@@ -19,14 +19,20 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   the obstacle (the picture of MFI; Ataka et al., Front. Robot. AI 9, 2022,
   doi 10.3389/frobt.2022.834177, keep a current's direction to get round
   concave obstacles): its subgoal lies `lookahead` ahead along
-  u = t + κ (r − r_f) n + κ ((p_g − p)·â) â, t = a × n / |a × n|, where n
-  points to the followed surface's closest point (the nearest reading not
-  within 45° of ±a, else the last one remembered) at clearance r, so that
-  it hugs the surface at r_f and the plane ⟂ a through the goal (the
-  goal's height for ±e_z), each pull clipped at 1. The first axis is
-  ±e_z, the sign that continues the vehicle's motion (it goes round
-  horizontally the way it was going); then −that; then the horizontal
-  axis ⟂ the goal direction, both signs (over and under).
+  u = s + κ ((p_g − p)·â) â, where n points to the followed surface's
+  closest point (the nearest reading not within 45° of ±a and not the
+  ground, else the last one remembered) at centre distance d, t = a × n /
+  |a × n|, ρ = R + r_f, and s = cos β n + sin β t with sin β = ρ/d outside
+  the circle of radius ρ round that point (the tangent to it: an edge is
+  rounded at r_f), s = t + κ (d − ρ) n inside it; the plane ⟂ a through
+  the goal (the goal's height for ±e_z) is hugged, its pull clipped at 1.
+  The first axis is ±e_z, the sign that continues the vehicle's motion
+  (it goes round horizontally the way it was going); then −that; then the
+  horizontal axis ⟂ the goal direction, both signs (over and under).
+- The ground (its height, where the world has one) is never followed, and
+  on a horizontal axis a traversal whose tangent leads down into it is
+  skipped where it begins ("under" a surface on the ground) and exhausted
+  where it comes down to within ρ of it.
 - Corner brake (any phase): in a concave corner eq 19's setpoint keeps
   the closing speed toward each surface below c·r (`corner_speed`,
   `corner_rate`).
@@ -34,14 +40,16 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   hides the goal (3DBug's leaving condition, with the tangent plane at the
   closest point as the local range data).
 - Loop: back within `loop_radius` of H after having been 2·loop_radius
-  away, the axis is exhausted and the next one is taken; a new trap within
+  away, following the surface followed where the axis began (closest
+  points within `loop_radius`: not the opposite wall of a corridor), the
+  axis is exhausted and the next one is taken; a new trap within
   `revisit_radius` of a remembered hit point resumes at that point's next
   axis. When all four axes are exhausted the goal is declared unreachable:
   the phase is TRAPPED for good (3DBug: a loop without a leave ends the
   search).
 
-The memory (`MEMORY_SIZE` floats, a fixed layout below) is bounded in size
-by construction, and in age: the progress record spans at most
+The memory (`MEMORY_SIZE` = 34 floats, a fixed layout below) is bounded in
+size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
 """
 
@@ -65,11 +73,15 @@ HIT = slice(3, 6)  # H, where the current traversal began
 D_HIT, AXIS, SIGN, AWAY = 6, 7, 8, 9  # AWAY: 2·loop_radius from H since
 SURFACE = slice(10, 13)  # the followed surface's last closest point
 SURFACE_SEEN = 13  # 1 once SURFACE holds a point
-RING_NEXT = 14  # the ring's next slot
-RING = 15  # HITS rows of [x, y, z, next axis]
+# The followed surface's closest point where the current axis's traversal
+# began (inf: none seen there): a loop closes only back on that surface.
+HIT_SURFACE = slice(14, 17)
+RING_NEXT = 17  # the ring's next slot
+RING = 18  # HITS rows of [x, y, z, next axis]
 MEMORY_SIZE = RING + 4 * HITS
 
 E_Z = np.array([0.0, 0.0, 1.0])
+ON_GROUND = 1e-3  # m: a reading whose point lies this near the ground is the ground's
 SWITCH = 0.25  # m, see followed_point
 # Two surfaces whose normals are further apart than 135° are the two sides of
 # a gap (a door, a corridor), which the vehicle passes along; nearer, they
@@ -86,7 +98,8 @@ class EscapeParams:
     - stall_time [s], progress [m]: a trap is no gain of `progress` in the
       best distance to the goal for `stall_time`.
     - follow_distance [m] (r_f), hug [1/m] (κ), lookahead [m]: the subgoal
-      lies `lookahead` ahead along t + κ (r − r_f) n.
+      lies `lookahead` ahead of the way round the surface at clearance r_f
+      (κ: the pull out where nearer, and toward the goal's plane).
     - follow_speed [m/s]: eq 19's v_d while following.
     - leave_margin [m]: leave only this much nearer the goal than at H.
     - loop_radius [m]: back this near H after 2·loop_radius away closes a
@@ -132,7 +145,12 @@ def axis(memory: np.ndarray, goal: np.ndarray) -> np.ndarray:
 
 
 def followed_point(
-    memory: np.ndarray, obstacle, p: np.ndarray, a: np.ndarray, near: float
+    memory: np.ndarray,
+    obstacle,
+    p: np.ndarray,
+    a: np.ndarray,
+    near: float,
+    ground: float | None = None,
 ):
     """The closest point (world frame) of the followed surface: among the
     seen readings whose direction is not within 45° of ±a (walls, not the
@@ -141,12 +159,19 @@ def followed_point(
     (the hugged distance of centre) or `SWITCH` nearer than that one, and
     the vehicle is not between the two (normals more than 90° apart): a
     wall ahead takes over at a concave corner, and at a doorway the jamb
-    being rounded is kept, not the far one. The nearest where none is
-    remembered; None if there is no candidate."""
+    being rounded is kept, not the far one. The ground (height `ground`,
+    None: none) is never followed: an endless plane cannot be gone round.
+    The nearest where none is remembered; None if there is no candidate."""
     points = []
     for r_o, seen in readings(obstacle):
         distance = np.linalg.norm(r_o)
-        if seen > 0.5 and distance > 1e-9 and abs(r_o @ a) < math.sqrt(0.5) * distance:
+        grounded = ground is not None and p[2] + r_o[2] <= ground + ON_GROUND
+        if (
+            seen > 0.5
+            and distance > 1e-9
+            and abs(r_o @ a) < math.sqrt(0.5) * distance
+            and not grounded
+        ):
             points.append((distance, p + r_o))
     if not points:
         return None
@@ -226,7 +251,7 @@ def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
     return False
 
 
-def _start_traversal(memory, p, v, obstacle, goal, near, params) -> None:
+def _start_traversal(memory, p, v, obstacle, goal, near, params, ground) -> None:
     """A trap at p: remember the hit point and pick its axis and sign."""
     ring = memory[RING : RING + 4 * HITS].reshape(HITS, 4)
     gaps = np.linalg.norm(ring[:, :3] - p, axis=1)
@@ -238,30 +263,37 @@ def _start_traversal(memory, p, v, obstacle, goal, near, params) -> None:
     k = int(ring[slot, 3])
     memory[HIT] = p
     memory[D_HIT] = memory[D_BEST]
-    memory[AWAY] = memory[SURFACE_SEEN] = 0.0
-    memory[AXIS] = k
+    memory[SURFACE_SEEN] = 0.0
+    memory[AXIS] = min(k, AXES - 1)
     memory[SIGN] = 1.0
-    if k >= AXES:
-        memory[PHASE] = TRAPPED
-        return
     memory[PHASE] = FOLLOW
     # The sign that continues the vehicle's motion round the surface.
-    q = followed_point(memory, obstacle, p, axis(memory, goal), near)
+    q = followed_point(memory, obstacle, p, axis(memory, goal), near, ground)
     if q is not None:
         tangent = np.cross(axis(memory, goal), q - p)
         memory[SIGN] = -1.0 if tangent @ v < 0.0 else 1.0
+    _begin_axis(memory, k, p, obstacle, goal, near, ground)
 
 
-def _next_axis(memory: np.ndarray) -> None:
-    """The traversal closed a loop round H: take the next axis."""
+def _begin_axis(memory, k, p, obstacle, goal, near, ground) -> None:
+    """Traversal of the current hit point about axis k (TRAPPED from AXES
+    on), which the ring remembers as the point's axis to resume. Above a
+    ground, an axis whose tangent at p points down is skipped: "under" a
+    surface standing on the ground is impossible."""
     ring = memory[RING : RING + 4 * HITS].reshape(HITS, 4)
-    k = int(memory[AXIS]) + 1
     slot = int(np.argmin(np.linalg.norm(ring[:, :3] - memory[HIT], axis=1)))
-    ring[slot, 3] = k
-    memory[AXIS] = k
     memory[AWAY] = 0.0
-    if k >= AXES:
-        memory[PHASE] = TRAPPED
+    memory[HIT_SURFACE] = np.inf
+    for each in range(k, AXES):
+        memory[AXIS] = ring[slot, 3] = each
+        q = followed_point(memory, obstacle, p, axis(memory, goal), near, ground)
+        if q is None:
+            return
+        if not _into_ground(memory, p, q, goal, ground):
+            memory[HIT_SURFACE] = q
+            return
+    memory[AXIS] = ring[slot, 3] = AXES
+    memory[PHASE] = TRAPPED
 
 
 def update_memory(
@@ -273,9 +305,11 @@ def update_memory(
     goal: np.ndarray,
     collision_radius: float,
     params: EscapeParams,
+    ground: float | None = None,
 ) -> np.ndarray:
     """The memory after one step at time t, position p, velocity v and the
-    readings `obstacle` (see the module docstring); a new array."""
+    readings `obstacle`, above the ground at height `ground` (None: no
+    ground; see the module docstring); a new array."""
     near = collision_radius + params.follow_distance
     memory = memory.copy()
     phase = memory[PHASE]
@@ -287,20 +321,54 @@ def update_memory(
         if d < memory[D_BEST] - params.progress:
             memory[D_BEST], memory[T_BEST] = d, t
         elif t - memory[T_BEST] > params.stall_time:
-            _start_traversal(memory, p, v, obstacle, goal, near, params)
+            _start_traversal(memory, p, v, obstacle, goal, near, params, ground)
         return memory
     if d < memory[D_HIT] - params.leave_margin and not goal_hidden(obstacle, r_g):
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
+    q = followed_point(memory, obstacle, p, axis(memory, goal), near, ground)
+    if q is not None:
+        memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
     gone = np.linalg.norm(p - memory[HIT])
     if gone > 2.0 * params.loop_radius:
         memory[AWAY] = 1.0
-    elif memory[AWAY] and gone < params.loop_radius:
-        _next_axis(memory)
-    q = followed_point(memory, obstacle, p, axis(memory, goal), near)
-    if q is not None:
-        memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
+    looped = (
+        memory[AWAY]
+        and gone < params.loop_radius
+        and _on_hit_surface(memory, params.loop_radius)
+    )
+    # Circulating in a vertical plane, the vehicle has come down to the
+    # ground and the way on is through it: the axis is exhausted too.
+    grounded = (
+        q is not None
+        and _into_ground(memory, p, q, goal, ground)
+        and p[2] - ground < near
+    )
+    if looped or grounded:
+        _begin_axis(memory, int(memory[AXIS]) + 1, p, obstacle, goal, near, ground)
     return memory
+
+
+def _into_ground(memory, p, q, goal, ground) -> bool:
+    """Whether the traversal's tangent a × n at p, the followed point q,
+    leads down above a ground: on a horizontal axis (k ≥ 2: circulation in a
+    vertical plane) that is "under", impossible for a surface standing on
+    the ground, and the ground itself cannot be gone round."""
+    if ground is None or memory[AXIS] < 2:
+        return False
+    return bool(np.cross(axis(memory, goal), q - p)[2] < 0.0)
+
+
+def _on_hit_surface(memory: np.ndarray, radius: float) -> bool:
+    """Whether the followed surface is the one followed where the axis's
+    traversal began (its closest point within `radius` of that one's;
+    true where either is unknown): back near H on the opposite wall of a
+    corridor is not a loop round the surface (Bug's loop returns to H along
+    the boundary it left by)."""
+    start = memory[HIT_SURFACE]
+    if not memory[SURFACE_SEEN] or not np.isfinite(start).all():
+        return True
+    return bool(np.linalg.norm(memory[SURFACE] - start) < radius)
 
 
 def subgoal(
@@ -310,14 +378,15 @@ def subgoal(
     goal: np.ndarray,
     collision_radius: float,
     params: EscapeParams,
+    ground: float | None = None,
 ) -> np.ndarray:
     """The point MFI steers to: the goal, or while following, `lookahead`
-    ahead along u = t + κ (r − r_f) n (see the module docstring)."""
+    ahead along u = s + κ ((p_g − p)·â) â (see the module docstring)."""
     if memory[PHASE] != FOLLOW:
         return goal
     a = axis(memory, goal)
     near = collision_radius + params.follow_distance
-    q = followed_point(memory, obstacle, p, a, near)
+    q = followed_point(memory, obstacle, p, a, near, ground)
     if q is None:
         if not memory[SURFACE_SEEN]:
             return goal
@@ -329,8 +398,16 @@ def subgoal(
     size = np.linalg.norm(t)
     if size < 1e-6:
         return goal
-    r = distance - collision_radius
-    pull = max(-1.0, min(1.0, params.hug * (r - params.follow_distance)))
+    if distance > near:
+        # Outside the circle of radius R + r_f round the followed point:
+        # along the tangent from p to that circle, angle asin(near/|r_o|)
+        # off n, so that an edge (a door's jamb) is rounded at r_f, not
+        # cut wide as a fixed pull lagging behind the turning n would.
+        beta = math.asin(near / distance)
+        surface = math.cos(beta) * n + math.sin(beta) * t / size
+    else:
+        pull = max(-1.0, params.hug * (distance - near))
+        surface = t / size + pull * n
     # The plane ⟂ a through the goal is hugged as the surface is, with the
     # same κ: circulating about ±e_z the vehicle keeps to the goal's height;
     # about a horizontal axis, to the vertical plane through H and the goal
@@ -338,5 +415,5 @@ def subgoal(
     # can stand in for the wall it follows and hide a door.
     unit = a / np.linalg.norm(a)
     level = max(-1.0, min(1.0, params.hug * ((goal - p) @ unit)))
-    u = t / size + pull * n + level * unit
+    u = surface + level * unit
     return p + params.lookahead * u / np.linalg.norm(u)

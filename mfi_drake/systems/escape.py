@@ -20,7 +20,9 @@ it does no work. Eq 19's setpoint is the rule's follow_speed while
 following and, in any phase, at most `escape.corner_speed` in a concave
 corner (the corner brake, `EscapeParams.corner_brake`): "obstacle_force"
 adds F_v(setpoint) − F_v(v_d), which brakes along −l_a.
-"obstacle_force_terms" holds [F, F_a + redirection + brake].
+"obstacle_force_terms" holds [F, F_a + redirection + brake]. The ground's
+height (`ground`, None without one) tells the rule which reading is the
+ground: never followed, and nothing goes under it.
 Float only: `analyze` linearises the memoryless chain (`MfiNavigator`).
 """
 
@@ -67,6 +69,7 @@ class EscapeNavigator(LeafSystem):
         collision_radius: float,
         mass: float,
         rule: escape.EscapeParams = DEFAULT_RULE,
+        ground: float | None = None,
     ):
         super().__init__()
         self.params = copy.deepcopy(params)
@@ -74,6 +77,8 @@ class EscapeNavigator(LeafSystem):
         self.goal = np.array(goal, dtype=float)
         self.collision_radius = float(collision_radius)
         self.mass = float(mass)
+        # The ground's height (None: none): never followed, nothing under it.
+        self.ground = None if ground is None else float(ground)
         # Eq 19's brake rate k = K_v/m gives the corner's setpoint gain.
         k = self.params.K_v / self.mass
         self._rate = escape.corner_rate(k, self.params.v_d, self.params.r_b)
@@ -118,6 +123,7 @@ class EscapeNavigator(LeafSystem):
             self.goal,
             self.collision_radius,
             self.rule,
+            self.ground,
         )
         state.get_mutable_discrete_state(self._memory).SetFromVector(new)
         if new[escape.PHASE] == escape.TRAPPED:
@@ -138,7 +144,13 @@ class EscapeNavigator(LeafSystem):
     def terms_of(self, x, obstacle, memory) -> tuple:
         p, v = position_velocity(x)
         target = escape.subgoal(
-            memory, p, obstacle, self.goal, self.collision_radius, self.rule
+            memory,
+            p,
+            obstacle,
+            self.goal,
+            self.collision_radius,
+            self.rule,
+            self.ground,
         )
         v_d = self.params.v_d
         if target is not self.goal:
