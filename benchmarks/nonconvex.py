@@ -6,7 +6,7 @@
 Flies worlds 0..count−1 of seed `seed` of every class of
 `world.nonconvex.KINDS` (or of the one class --world names) with every
 method: `mfi-drake sweep --world` (`studies.sweep.run_sweep`, its records
-in OUT/results.jsonl, resumed), and prints the training table of
+in OUT/results.jsonl, resumed), and prints the held-out table of
 docs/nonconvex.md: per class and method, success / collision / timeout
 (and trapped).
 
