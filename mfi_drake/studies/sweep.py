@@ -405,17 +405,16 @@ def default_engine(
     tasks: Tasks,
     modify: Callable[[Scenario], Scenario] | None,
 ) -> Callable[[Scenario], Scenario] | None:
-    """`modify` with `engine: compiled` layered under it, where no layer of
-    `modify` names an engine and every method of `config` flies the first
-    field on the compiled engine (`flight.fleet.unsupported`: not mfi-nc,
-    cameras, moving obstacles, faults, maps, user fields); else `modify`.
+    """`modify` with `engine: compiled` layered under it, where every method
+    of `config` flies the first field so layered on the compiled engine
+    (`flight.fleet.unsupported`: not mfi-nc, cameras, moving obstacles,
+    faults, maps, user fields); else `modify`. A layer of `modify` that
+    names an engine wins: `engine: systems` undoes the default, and
+    `engine: compiled` flies (or is refused by `check_engine`) as asked.
     `sweep`'s default. The engines fly the same flights (benchmarks/
     engines.py), so the variant and the records' keys do not name it."""
-    first = field_to_fly(config, tasks, None, config.flight_keys()[0])
-    systems = first if modify is None else modify(first)
-    if first.engine != "systems" or systems.engine != "systems":
-        return modify  # the field or a layer names the engine
-    compiled = generator.self_contained(_compiled_under(first, modify))
-    if compiled.engine != "compiled" or not on_compiled(compiled, config.methods):
+    under = functools.partial(_compiled_under, modify=modify)
+    first = field_to_fly(config, tasks, under, config.flight_keys()[0])
+    if first.engine != "compiled" or not on_compiled(first, config.methods):
         return modify
-    return functools.partial(_compiled_under, modify=modify)
+    return under
