@@ -185,6 +185,35 @@ def test_a_new_process_loads_the_compiled_chain_from_the_cache(wall):
     assert (hits, misses) == (1, 0)
 
 
+def test_processes_starting_together_compile_a_function_once(tmp_path):
+    """Two processes specialise the same function at the same moment in an
+    empty cache: the lock makes one compile it and the other load what it
+    wrote (invariant: one miss in all; numba alone compiles in each)."""
+    script = (
+        "import sys, time\n"
+        "import numpy as np\n"
+        "from mfi_drake.maths import compiled, so3\n"
+        "function = compiled.compiled(so3).rotation_from_reference\n"
+        "time.sleep(max(0.0, float(sys.argv[1]) - time.time()))\n"
+        "compiled.specialised(function, np.ones(3), np.array([0.0, 1.0, 0.0]))\n"
+        "print(sum(function.stats.cache_misses.values()))\n"
+    )
+    start = str(time.time() + 8.0)  # after both have imported numba
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    runs = [
+        subprocess.Popen(
+            [sys.executable, "-c", script, start],
+            cwd=ROOT,
+            env=env,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        for _ in range(2)
+    ]
+    misses = [int(run.communicate(timeout=120)[0].split()[-1]) for run in runs]
+    assert sorted(misses) == [0, 1]
+
+
 def test_the_cache_falls_back_to_the_user_directory_where_the_package_is_read_only(
     monkeypatch,
 ):
