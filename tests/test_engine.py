@@ -149,13 +149,15 @@ def test_a_lone_flight_is_the_same_on_both_engines(wall):
 
 
 @pytest.mark.parametrize("scene", PAPER_SCENARIOS)
-def test_a_paper_mfi_flight_is_the_same_on_both_engines(scene):
-    # Measured: bit-identical (the same steps, positions equal) on the
-    # paper's four scenes and on tree_on_ground, whose flight turns 43 times
-    # by eq 16–18's rotations (the goal behind).
+def test_an_mfi_flight_of_a_paper_scene_is_the_same_on_both_engines(scene):
+    # The other methods' (mfi-paper, apf, gf) are flown on both engines by
+    # tests/test_regression.py. Measured: bit-identical (the same steps,
+    # positions equal) for every method on the paper's four scenes and on
+    # tree_on_ground (mfi-paper's flight turns 43 times by eq 16–18's
+    # rotations there, the goal behind).
     scenario = load_scenario(f"{SCENARIOS}/{scene}.yaml")
-    systems = simulate(scenario, "mfi-paper", until_settled=True)
-    flown = simulate(on_compiled(scenario), "mfi-paper", until_settled=True)
+    systems = simulate(scenario, "mfi", until_settled=True)
+    flown = simulate(on_compiled(scenario), "mfi", until_settled=True)
     assert flown.metrics["engine"] == "compiled"
     assert flown.metrics["outcome"] == systems.metrics["outcome"]
     np.testing.assert_array_equal(flown.times, systems.times)

@@ -22,15 +22,21 @@ steps to 1 % and the saturated fraction of them to 1e-3 (APF's
 three_spheres: 0.0058 against 0.0054). A change to the flight code moves
 them by more (each repair moved path lengths by centimetres);
 tests/test_one_integrator.py compares two code paths on one machine bit
-for bit."""
+for bit, and so does each test here: the flight on the compiled engine
+(`engine: compiled`, issue 40's equality) has the systems flight's steps
+and positions, but with faults, which it does not fly."""
 
 import json
 import os
 import sys
 
+import numpy as np
 import pytest
 
 from mfi_drake import load_scenario
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.flight.fleet import unsupported
+from mfi_drake.flight.result import Flight
 from mfi_drake.studies.compare import compare
 
 from .conftest import ROOT, SCENARIOS
@@ -42,14 +48,18 @@ with open(RECORDED) as f:
 EXPECTED = RECORD["metrics"]
 
 
-def flown(name: str, methods: list[str]) -> dict:
+def recorded_scenario(name: str, engine: str = "systems") -> Scenario:
     gains = ("recorded gains", json.dumps(RECORD["gains"]))
-    scenario = load_scenario(os.path.join(SCENARIOS, f"{name}.yaml"), [gains])
-    flights = compare(scenario, methods)
-    return {
-        f.method: {k: v for k, v in f.metrics.items() if k not in (*TIMINGS, "method")}
-        for f in flights
-    }
+    engine_layer = ("engine", json.dumps({"engine": engine}))
+    return load_scenario(os.path.join(SCENARIOS, f"{name}.yaml"), [gains, engine_layer])
+
+
+def metrics(flight: Flight) -> dict:
+    return {k: v for k, v in flight.metrics.items() if k not in (*TIMINGS, "method")}
+
+
+def flown(name: str, methods: list[str]) -> dict:
+    return {f.method: metrics(f) for f in compare(recorded_scenario(name), methods)}
 
 
 # One test a scene and method: the flights are independent, and the longest
@@ -58,7 +68,8 @@ def flown(name: str, methods: list[str]) -> dict:
     ("name", "method"), [(n, m) for n in sorted(EXPECTED) for m in EXPECTED[n]]
 )
 def test_paper_scenario_metrics_are_unchanged(name, method):
-    (got,) = flown(name, [method]).values()
+    (systems,) = compare(recorded_scenario(name), [method])
+    got = metrics(systems)
     recorded = EXPECTED[name][method]
     tolerance = 1e-4 if recorded["outcome"] == "success" else 1e-3
     for key, want in recorded.items():
@@ -72,6 +83,15 @@ def test_paper_scenario_metrics_are_unchanged(name, method):
             assert got[key] == pytest.approx(want, rel=0.01), key
         else:
             assert got[key] == want, key
+    if unsupported(recorded_scenario(name, "compiled"), method):
+        return  # faults: the compiled engine flies none
+    # The compiled engine flies the same flight (issue 40's equality), bit
+    # for bit as measured (the same steps, positions equal).
+    (flown_compiled,) = compare(recorded_scenario(name, "compiled"), [method])
+    assert flown_compiled.metrics["engine"] == "compiled"
+    assert flown_compiled.metrics["outcome"] == got["outcome"]
+    np.testing.assert_array_equal(flown_compiled.times, systems.times)
+    assert np.abs(flown_compiled.positions - systems.positions).max() <= 1e-6
 
 
 if __name__ == "__main__":  # regenerate the record from the current code

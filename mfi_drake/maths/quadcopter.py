@@ -86,8 +86,9 @@ def _brake_first(F, v, level, weight, params: NavigatorParams) -> tuple:
     # ≤ 0 with γ ≤ 0 (b is deliverable); its crossing to > 0 is the root
     # (−β + √(β² − aγ))/a = −γ/(β + √(β² − aγ)), each form used where it
     # does not cancel (β < 0 with a crossing in (0, 1] needs a > 0).
-    K2 = (params.K_Pv * level) ** 2
-    t2 = params.max_tilt**2
+    K = params.K_Pv * level
+    K2 = K * K
+    t2 = params.max_tilt * params.max_tilt
     lift = b[2] + weight
     a = K2 * (q[0] * q[0] + q[1] * q[1]) - t2 * q[2] * q[2]
     beta = K2 * (b[0] * q[0] + b[1] * q[1]) - t2 * q[2] * lift
