@@ -28,9 +28,10 @@ def test_a_sealed_box_ends_trapped_and_run_says_so(tmp_path, capsys):
     assert metrics["outcome"] == "trapped" and metrics["trapped"] is True
     assert metrics["sim_time"] < 0.85 * box.duration  # ended by the rule
     assert metrics["min_clearance"] > 0.0 and not metrics["reached"]
-    # The same goal with MFI: nothing ends the flight before its limit, set
-    # past the time mfi-nc's rule ended (a shorter flight: it is the slow one).
-    limit = dataclasses.replace(box, duration=metrics["sim_time"] + 10.0)
+    # The same goal with MFI, which has no rule: its flight ends at its
+    # limit, a timeout (30 s: MFI dithers in the box, 29 s of CPU to fly
+    # past the time mfi-nc's rule ended).
+    limit = dataclasses.replace(box, duration=30.0)
     mfi = simulate(limit, "mfi", **SWEEP_ENDS).metrics
     assert outcome(mfi) == mfi["outcome"] == "timeout" and "trapped" not in mfi
     assert mfi["sim_time"] == limit.duration
