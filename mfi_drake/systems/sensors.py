@@ -56,8 +56,9 @@ class AnchoredReadings:
         self._ignore = frozenset(ignore)
         self._version = None  # the proximity geometry's, at the last call
         self._all = (None, None)  # (every position's bytes, readings (n, 12))
-        # A vehicle's (position bytes, reading, position) at its last query.
-        self._last = [(None, None, None)] * n
+        # A vehicle's (position bytes, reading, position as floats, distance
+        # of its farthest reading or None) at its last query.
+        self._last = [(None, None, None, None)] * n
 
     def __call__(self, query, positions: np.ndarray) -> np.ndarray:
         """The readings (n, OBSTACLE_SIGNAL_SIZE) at `positions` (n, 3)."""
@@ -71,27 +72,31 @@ class AnchoredReadings:
         key = positions.tobytes()
         if same and key == self._all[0]:  # every vehicle where it was
             return self._all[1]
-        out = np.empty((len(positions), OBSTACLE_SIGNAL_SIZE))
-        for k, p in enumerate(positions):
-            out[k] = self._read(k, query, p, same)
+        # Floats for math.dist, which iterates numpy rows slowly.
+        points = positions.tolist()
+        out = np.array(
+            [self._read(k, query, p, points[k], same) for k, p in enumerate(positions)]
+        )
         self._all = (key, out)
         return out
 
-    def _read(self, k: int, query, p: np.ndarray, same: bool) -> np.ndarray:
+    def _read(self, k: int, query, p: np.ndarray, point: list, same: bool):
         key = p.tobytes()
-        last_key, value, last_p = self._last[k]
+        last_key, value, last_point, farthest = self._last[k]
         if same and key == last_key:
             return value
         reach = self._radius
-        if same and value is not None and value[-1] > 0.5:  # the farthest seen
-            farthest = value[-READING_SIZE:-1]
-            reach = min(reach, math.hypot(*farthest) + math.dist(p, last_p) + SLACK)
+        if same and farthest is not None:
+            reach = min(reach, farthest + math.dist(point, last_point) + SLACK)
         value = nearest_obstacles(query, p, reach, self._ignore)
         if value[-1] <= 0.5 and reach < self._radius:
             value = nearest_obstacles(
                 query, p, self._radius, self._ignore
             )  # never met so far
-        self._last[k] = (key, value, p)
+        farthest = None
+        if value[-1] > 0.5:  # every reading seen: the last is the farthest
+            farthest = math.hypot(*value[-READING_SIZE:-1].tolist())
+        self._last[k] = (key, value, point, farthest)
         return value
 
 
