@@ -150,7 +150,7 @@ class SphereSensor(LeafSystem):
 
 class FleetSceneSensor(LeafSystem):
     """Every vehicle's `SphereSensor` reading of an anchored scene, in one
-    Python call a evaluation for the fleet (`flight.fleet`, one
+    Python call an evaluation for the fleet (`flight.fleet`, one
     integrator): each vehicle's reading is its own sphere sensor's, bit for
     bit (`AnchoredReadings`).
 
