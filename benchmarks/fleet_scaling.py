@@ -3,6 +3,8 @@ the exchange rate (docs/fleets.md).
 
     python benchmarks/fleet_scaling.py [--sizes 1,2,4,8,16,32]
                                        [--processes P] [--rates 5,10,20,50]
+                                       [--compiled 1,8,16,32] [--field-seed S]
+                                       [--field-seconds T]
                                        [--figure PATH] [--page docs/dynamic.md]
 
 Scaling: for each N, an antipodal circle of N vehicles (`world.fleets`,
@@ -16,6 +18,16 @@ and the fleet's over the reference's: the CPU ratio is the work a
 vehicle-second costs, the wall ratio what the machine delivers (on a
 shared machine the CPU ratio is the steadier). The one integrator's build
 time (its chain compiled, outside the flight) is printed apart.
+
+Compiled: for each N of --compiled, the fleet on one integrator against
+one vehicle alone on the compiled engine (`engine: compiled`, the same
+compiled chain and sphere sensor with N = 1; the median of three), in empty
+space (the antipodal circle, as above) and among static obstacles (field 0
+of seed --field-seed at density 0.1, `random_pairs`; the lone vehicle is
+the fleet's first, alone in the same field; each flown --field-seconds).
+Printed: steps, vehicle-seconds per CPU second and the ratio to the lone
+vehicle's, the flight's realtime factor (simulated over wall seconds) and
+the whole call's (`simulate`: diagram, flight and metrics) beside it.
 
 Rates: the shipped swarms and three random fields of four vehicles (the
 multi-vehicle sweep's, seed 0) flown at each exchange rate, and on one
@@ -115,6 +127,46 @@ def scaling(sizes: list[int], processes: int, lines: list[str]) -> list[dict]:
     return rows
 
 
+def compiled_scaling(
+    sizes: list[int], seed: int, field_seconds: float, lines: list[str]
+) -> None:
+    """The one-integrator fleet against a lone compiled vehicle, in empty
+    space and among static obstacles (the module docstring's "Compiled")."""
+    say(
+        lines,
+        "| scene | N | outcome | steps | vehicle-s per CPU s | alone: per CPU s "
+        "| ratio (CPU) | realtime factor: flight | whole call |",
+    )
+    say(lines, "|---|---|---|---|---|---|---|---|---|")
+    field = generator.random_field(seed, 0, 0.1)
+    for scene in ("empty", "obstacles"):
+        for n in sizes:
+            if scene == "empty":
+                fleet = antipodal_circle(max(n, 2))
+                label = f"circle ({len(fleet.obstacles)} obstacles)"
+            else:
+                fleet = random_pairs(field, max(n, 2), seed, 0)
+                fleet = replace(fleet, duration=field_seconds)
+                label = f"field {seed}/0 ({len(fleet.obstacles)} obstacles)"
+            lone = replace(alone(fleet), engine="compiled")
+            references = [speeds(simulate(lone))[0] for _ in range(3)]
+            reference = float(np.median(references))
+            # N = 1: the lone vehicle's own row (its ratio: the spread).
+            fleet = replace(fleet, fleet_integration="one") if n > 1 else lone
+            start = time.perf_counter()
+            flown = simulate(fleet)
+            whole = time.perf_counter() - start
+            cpu = speeds(flown)[0]
+            sim_time = flown.metrics["sim_time"]
+            say(
+                lines,
+                f"| {label} | {n} | {flown.metrics['outcome']} "
+                f"| {flown.integrator_steps} | {cpu:.1f} | {reference:.1f} "
+                f"| {cpu / reference:.2f} | {sim_time / flown.wall_time:.1f} "
+                f"| {sim_time / whole:.1f} |",
+            )
+
+
 def rates(hz: list[float], lines: list[str], rule_lines: list[str]) -> None:
     """The rates table into `lines`; into `rule_lines`, each scene at its own
     rate with the rule of the road and without it (keep_right 0)."""
@@ -210,11 +262,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--sizes", default="1,2,4,8,16,32")
     parser.add_argument("--processes", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--rates", default="5,10,20,50")
+    parser.add_argument("--compiled", default="", help="sizes, e.g. 1,8,16,32")
+    parser.add_argument("--field-seed", type=int, default=0)
+    parser.add_argument("--field-seconds", type=float, default=20.0)
     parser.add_argument("--figure", default="")
     parser.add_argument(
         "--page",
         help="a page to write the tables into (sections fleet_scaling, "
-        "fleet_rates, fleet_rule)",
+        "fleet_compiled, fleet_rates, fleet_rule)",
     )
     args = parser.parse_args(argv)
     sizes = [int(n) for n in args.sizes.split(",") if n]
@@ -230,6 +285,15 @@ def main(argv: list[str] | None = None) -> None:
             figure(rows, args.figure)
         if args.page:
             write_section(args.page, "fleet_scaling", "\n".join(lines))
+    compiled = [int(n) for n in args.compiled.split(",") if n]
+    if compiled:
+        start, load = time.perf_counter(), os.getloadavg()[0]
+        lines = [f"1 process, {os.cpu_count()} cores, load average {load:.1f}:", ""]
+        compiled_scaling(compiled, args.field_seed, args.field_seconds, lines)
+        lines += ["", f"The whole command: {time.perf_counter() - start:.0f} s."]
+        print(lines[-1], flush=True)
+        if args.page:
+            write_section(args.page, "fleet_compiled", "\n".join(lines))
     if args.rates:
         lines, rule_lines = [], []
         rates([float(r) for r in args.rates.split(",")], lines, rule_lines)

@@ -114,3 +114,20 @@ def test_fleet_conflicts_writes_its_table_and_the_rule_turns_the_roundabout(
     without, with_rule = row.strip(" |").split(" | ")[2:]
     assert without.startswith("success, ") and without.endswith(", −−")
     assert with_rule.startswith("success, ") and with_rule.endswith(", ++")
+
+
+def test_fleet_scaling_compiled_writes_both_scenes_against_the_lone_vehicle(
+    tmp_path,
+):
+    page = tmp_path / "page.md"
+    page.write_text("<!-- BEGIN fleet_compiled -->\n<!-- END fleet_compiled -->\n")
+    argv = ["--sizes", "", "--rates", "", "--compiled", "2", "--field-seconds", "1"]
+    load_benchmark("fleet_scaling").main(argv + ["--page", str(page)])
+    rows = [line.strip(" |").split(" | ") for line in page.read_text().splitlines()]
+    rows = [row for row in rows if len(row) == 9 and row[1] == "2"]
+    assert [row[0].split(" (")[0] for row in rows] == ["circle", "field 0/0"]
+    assert rows[1][0].endswith("(20 obstacles)")
+    for row in rows:
+        cpu, alone, ratio = (float(x) for x in row[4:7])
+        assert ratio == pytest.approx(cpu / alone, abs=0.006)  # as printed
+    assert "The whole command: " in page.read_text()

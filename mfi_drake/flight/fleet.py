@@ -1,8 +1,8 @@
 """A fleet flown by one integrator (`fleet_integration: one`, docs/fleets.md
 "One integrator"):
 
-    SceneGraph ──query──▶ scene sensors (one a vehicle, only where the
-        │                  scene has obstacles or a ground)
+    SceneGraph ──query──▶ FleetSceneSensor (only where the scene has
+        │                  obstacles or a ground: every vehicle's readings)
         ▼                          │ scene
     plants' states ──▶ FleetChain ◀┘ ──rows──▶ logger
         ▲                  │ rotor_forces
@@ -36,11 +36,7 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths import baselines, fields
-from mfi_drake.maths.layout import (
-    OBSTACLE_SIGNAL_SIZE,
-    ROTORS,
-    STATE_SIZE,
-)
+from mfi_drake.maths.layout import ROTORS, STATE_SIZE
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.fleet import FleetChain
 from mfi_drake.systems.navigation import (
@@ -48,7 +44,7 @@ from mfi_drake.systems.navigation import (
     ObstacleNavigator,
     PotentialGoalAttraction,
 )
-from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
+from mfi_drake.systems.sensors import FleetSceneSensor
 from mfi_drake.world.motion import obstacles_move
 from mfi_drake.world.obstacles import register_obstacles
 
@@ -181,22 +177,21 @@ class OneIntegratorFleet:
             ),
         )
         builder.Connect(states.get_output_port(0), chain.GetInputPort("states"))
-        self.sensors = []
+        self.scene_sensor = None
         if scene:
-            readings = builder.AddNamedSystem(
-                "scene", Multiplexer([OBSTACLE_SIGNAL_SIZE] * n)
+            self.scene_sensor = builder.AddNamedSystem(
+                "scene_sensor", FleetSceneSensor(scenario.sensor.radius, n)
             )
-            for k, plant in enumerate(self.plants):
-                sensor = builder.AddNamedSystem(
-                    f"scene_sensor_{k}", SphereSensorSystem(scenario.sensor.radius)
-                )
-                builder.Connect(
-                    scene_graph.get_query_output_port(), sensor.GetInputPort("query")
-                )
-                builder.Connect(plant.get_output_port(0), sensor.GetInputPort("state"))
-                builder.Connect(sensor.get_output_port(0), readings.get_input_port(k))
-                self.sensors.append(sensor)
-            builder.Connect(readings.get_output_port(0), chain.GetInputPort("scene"))
+            builder.Connect(
+                scene_graph.get_query_output_port(),
+                self.scene_sensor.GetInputPort("query"),
+            )
+            builder.Connect(
+                states.get_output_port(0), self.scene_sensor.GetInputPort("states")
+            )
+            builder.Connect(
+                self.scene_sensor.GetOutputPort("scene"), chain.GetInputPort("scene")
+            )
         rotors = builder.AddNamedSystem("rotors", Demultiplexer(ROTORS * n, ROTORS))
         builder.Connect(chain.GetOutputPort("rotor_forces"), rotors.get_input_port(0))
         for k, plant in enumerate(self.plants):

@@ -21,7 +21,7 @@ from mfi_drake.flight.monitors import (
 from mfi_drake.flight.result import Flight, fleet_flight
 from mfi_drake.flight.simulator import run_timed, simulator_at_start
 from mfi_drake.maths.fleet import ROW_SIZE, row_slices
-from mfi_drake.maths.layout import POSITION, STATE_SIZE
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, POSITION, STATE_SIZE
 
 
 def one_integrator_monitor(
@@ -44,10 +44,13 @@ def one_integrator_monitor(
         if stop_at_contact:
             if n > 1 and centre_gap(x[:, POSITION]) < 2.0 * radius - CONTACT_MARGIN:
                 return EventStatus.ReachedTermination(fleet.chain, "vehicles touch")
-            for sensor in fleet.sensors:
+            sensor = fleet.scene_sensor
+            if sensor is not None:
                 port = sensor.get_output_port(0)
-                if in_contact(port.Eval(sensor.GetMyContextFromRoot(context)), radius):
-                    return EventStatus.ReachedTermination(sensor, "in contact")
+                scene = port.Eval(sensor.GetMyContextFromRoot(context))
+                for reading in scene.reshape(n, OBSTACLE_SIGNAL_SIZE):
+                    if in_contact(reading, radius):
+                        return EventStatus.ReachedTermination(sensor, "in contact")
         if until_settled and clock.settled(context.get_time(), x):
             return EventStatus.ReachedTermination(fleet.chain, "every vehicle settled")
         return EventStatus.Succeeded()

@@ -3,6 +3,7 @@
 import copy
 import math
 
+import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import Box as DrakeBox
 from pydrake.geometry import Cylinder as DrakeCylinder
@@ -24,14 +25,79 @@ from mfi_drake.config.vehicle_model import vehicle_parts
 from mfi_drake.maths.layout import (
     OBSTACLE_SIGNAL_SIZE,
     POSITION,
+    READING_SIZE,
     STATE_SIZE,
-    readings,
 )
 from mfi_drake.world.obstacles import nearest_obstacles
 
 VEHICLE_RGBA = Rgba(*vehicle_model.VEHICLE_RGBA)
 _SHAPES = {"box": DrakeBox, "cylinder": DrakeCylinder}  # `vehicle_model.Part`'s
 SLACK = 1e-3  # [m] added to a shortened reach, for the distances' rounding
+
+
+class AnchoredReadings:
+    """The sphere sensor's readings (`nearest_obstacles` within r_s) at
+    the positions of n vehicles among anchored proximity geometry, each
+    vehicle with the memo of its last reading: `SphereSensor`'s (n = 1) and
+    `FleetSceneSensor`'s.
+
+    The obstacles are anchored, so a reading depends on p and on the
+    proximity geometry, which only changes with its version (read once a
+    call). A position that repeats (the step's first evaluation repeats the
+    logger's) costs no query; a new one is queried within the last
+    reading's farthest plus the distance moved: distances are 1-Lipschitz,
+    so the nearest obstacles are no farther, SceneGraph's broadphase skips
+    every obstacle beyond, and the reading is the one of the full radius.
+    The query object is valid only during its evaluation: not kept.
+    """
+
+    def __init__(self, radius: float, n: int, ignore: frozenset = frozenset()):
+        self._radius = float(radius)
+        self._ignore = frozenset(ignore)
+        self._version = None  # the proximity geometry's, at the last call
+        self._all = (None, None)  # (every position's bytes, readings (n, 12))
+        # A vehicle's (position bytes, reading, position as floats, distance
+        # of its farthest reading or None) at its last query.
+        self._last = [(None, None, None, None)] * n
+
+    def __call__(self, query, positions: np.ndarray) -> np.ndarray:
+        """The readings (n, OBSTACLE_SIGNAL_SIZE) at `positions` (n, 3)."""
+        current = query.inspector().geometry_version()
+        same = self._version is not None and current.IsSameAs(
+            self._version, Role.kProximity
+        )
+        if not same:
+            self._version = copy.copy(current)
+        positions = np.array(positions, float)  # C-contiguous: a row's bytes
+        key = positions.tobytes()
+        if same and key == self._all[0]:  # every vehicle where it was
+            return self._all[1]
+        # Floats for math.dist, which iterates numpy rows slowly.
+        points = positions.tolist()
+        out = np.array(
+            [self._read(k, query, p, points[k], same) for k, p in enumerate(positions)]
+        )
+        self._all = (key, out)
+        return out
+
+    def _read(self, k: int, query, p: np.ndarray, point: list, same: bool):
+        key = p.tobytes()
+        last_key, value, last_point, farthest = self._last[k]
+        if same and key == last_key:
+            return value
+        reach = self._radius
+        if same and farthest is not None:
+            reach = min(reach, farthest + math.dist(point, last_point) + SLACK)
+        value = nearest_obstacles(query, p, reach, self._ignore)
+        if value[-1] <= 0.5 and reach < self._radius:
+            value = nearest_obstacles(
+                query, p, self._radius, self._ignore
+            )  # never met so far
+        farthest = None
+        if value[-1] > 0.5:  # every reading seen: the last is the farthest
+            farthest = math.hypot(*value[-READING_SIZE:-1].tolist())
+        self._last[k] = (key, value, point, farthest)
+        return value
 
 
 class SphereSensor(LeafSystem):
@@ -51,18 +117,16 @@ class SphereSensor(LeafSystem):
     "obstacle": OBSTACLE_COUNT readings [r_o, seen], nearest first.
 
     `moving`: whether proximity geometry moves (obstacles with a motion,
-    other vehicles), which turns off the memo of the last reading.
-    `ignore`: GeometryIds that are no obstacle (the vehicle's own shapes,
-    where it has proximity geometry in SceneGraph).
+    other vehicles), which turns off the memo of the last reading
+    (`AnchoredReadings`). `ignore`: GeometryIds that are no obstacle (the
+    vehicle's own shapes, where it has proximity geometry in SceneGraph).
     """
 
     def __init__(self, radius: float, moving: bool = False, ignore=()):
         super().__init__()
         self._radius = float(radius)
-        self._moving = bool(moving)
         self._ignore = frozenset(ignore)
-        # (position bytes, geometry version, reading, position), see _calc
-        self._last = (None, None, None, None)
+        self._anchored = None if moving else AnchoredReadings(radius, 1, ignore)
         self._query = self.DeclareAbstractInputPort(
             "query", AbstractValue.Make(QueryObject())
         )
@@ -77,39 +141,52 @@ class SphereSensor(LeafSystem):
     def _calc(self, context, output):
         p = self._state.Eval(context)[POSITION]
         query = self._query.Eval(context)
-        if self._moving:
-            output.SetFromVector(
-                nearest_obstacles(query, p, self._radius, self._ignore)
-            )
-            return
-        # The obstacles are anchored, so the reading depends on p and on the
-        # proximity geometry, which only changes with its version; the
-        # version is read only when p repeats (the step's first evaluation
-        # repeats the logger's). The query object is valid only during this
-        # evaluation: not kept.
-        key = p.tobytes()
-        last_key, version, value, last_p = self._last
-        if key == last_key and query.inspector().geometry_version().IsSameAs(
-            version, Role.kProximity
-        ):
-            output.SetFromVector(value)
-            return
-        current = query.inspector().geometry_version()
-        reach = self._radius
-        farthest, seen = readings(value)[-1] if value is not None else (None, 0.0)
-        if seen > 0.5 and current.IsSameAs(version, Role.kProximity):
-            # The nearest obstacles are no farther than the last reading's
-            # farthest plus the distance moved (distances are 1-Lipschitz):
-            # that reach lets SceneGraph's broadphase skip every obstacle
-            # beyond it, and the reading is the one of the full radius.
-            reach = min(reach, math.hypot(*farthest) + math.dist(p, last_p) + SLACK)
-        value = nearest_obstacles(query, p, reach, self._ignore)
-        if readings(value)[-1][1] <= 0.5 and reach < self._radius:
-            value = nearest_obstacles(
-                query, p, self._radius, self._ignore
-            )  # never met so far
-        self._last = (key, copy.copy(current), value, p.copy())
+        if self._anchored is None:
+            value = nearest_obstacles(query, p, self._radius, self._ignore)
+        else:
+            value = self._anchored(query, p.reshape(1, 3))[0]
         output.SetFromVector(value)
+
+
+class FleetSceneSensor(LeafSystem):
+    """Every vehicle's `SphereSensor` reading of an anchored scene, in one
+    Python call an evaluation for the fleet (`flight.fleet`, one
+    integrator): each vehicle's reading is its own sphere sensor's, bit for
+    bit (`AnchoredReadings`).
+
+    .. pydrake_system::
+
+        name: FleetSceneSensor
+        input_ports:
+        - query
+        - states
+        output_ports:
+        - scene
+
+    "query": SceneGraph's QueryObject; "states": the n plants' states,
+    stacked (12 n); "scene": each vehicle's OBSTACLE_COUNT readings
+    [r_o, seen], nearest first, stacked (OBSTACLE_SIGNAL_SIZE n).
+    """
+
+    def __init__(self, radius: float, n: int):
+        super().__init__()
+        self._n = int(n)
+        self._anchored = AnchoredReadings(radius, self._n)
+        self._query = self.DeclareAbstractInputPort(
+            "query", AbstractValue.Make(QueryObject())
+        )
+        self._states = self.DeclareVectorInputPort("states", STATE_SIZE * self._n)
+        self.DeclareVectorOutputPort(
+            "scene",
+            OBSTACLE_SIGNAL_SIZE * self._n,
+            self._calc,
+            prerequisites_of_calc={self._query.ticket(), self._states.ticket()},
+        )
+
+    def _calc(self, context, output):
+        states = self._states.Eval(context).reshape(self._n, STATE_SIZE)
+        readings = self._anchored(self._query.Eval(context), states[:, POSITION])
+        output.SetFromVector(readings.ravel())
 
 
 class VehicleGeometry(LeafSystem):

@@ -127,8 +127,14 @@ def nearest_obstacles(
     results = query_object.ComputeSignedDistanceToPoint(p, threshold)
     if ignore:
         results = [r for r in results if r.id_G not in ignore]
-    order = nearest_first([r.distance for r in results])
-    return obstacle_signal([-results[i].distance * results[i].grad_W for i in order])
+    distances = [r.distance for r in results]
+    points = []
+    for i in nearest_first(distances):
+        # In floats, (−d) g_i as numpy would multiply it, without numpy's
+        # cost a product (~1 µs a reading).
+        d, (x, y, z) = -distances[i], results[i].grad_W.tolist()
+        points.append((d * x, d * y, d * z))
+    return obstacle_signal(points)
 
 
 def obstacle_distances(
