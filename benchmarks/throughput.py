@@ -32,10 +32,12 @@ Prints, all measured in this run (the machine's load average with each):
    default density, in this process, as a sweep's worker does it): field
    generation, the scenario's YAML both ways, the reference path (the
    field's `field_reference` task), diagram build, simulation, metrics.
-3. Sweep flights per minute: `mfi-drake sweep` of MFI on --fields fresh
-   fields (a seed no earlier run used) at the default density, on a local
-   cluster of 1 and then 2 worker processes, the cluster's start-up and
-   shutdown included.
+3. Sweep flights per minute: the whole `mfi-drake sweep` command on
+   --fields fresh fields (a seed no earlier run used) at the default
+   density: MFI on a local cluster of 1 and then 2 worker processes (on
+   its default engine, compiled), then every method on 2 workers on the
+   systems engine (`--set 'engine: systems'`) and on its default, the same
+   fields, and the ratio of their flights per minute.
 4. CPU per flight of each method (mfi, mfi-paper, apf, gf) on the same
    --compare fresh fields at the default density, flown in turn in this
    process until settled, as a sweep flies them; steps and µs per step,
@@ -56,7 +58,6 @@ commit it ran at.
 import argparse
 import dataclasses
 import glob
-import io
 import json
 import os
 import subprocess
@@ -74,14 +75,12 @@ from mfi_drake.config.scenario_yaml import read_override, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.files import write_section
 from mfi_drake.flight.diagram import build_diagram, make_plant
+from mfi_drake.flight.methods import DEFAULT_METHODS
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.flight.simulator import fly, run_timed, simulator_at_start
-from mfi_drake.studies.cluster import dask_client
 from mfi_drake.studies.sweep import (
     SWEEP_ENDS,
-    SweepConfig,
     field_reference,
-    run_sweep,
     task_scenario,
 )
 from mfi_drake.studies.variants import with_overrides
@@ -380,44 +379,60 @@ def every_scenario(pattern: str, say) -> dict[str, float]:
     return factors
 
 
-def one_sweep(workers: int, fields: int, seed: int) -> None:
-    """One MFI sweep on a local cluster (what `--one-sweep` runs in a
-    process of its own)."""
-    with tempfile.TemporaryDirectory() as out, dask_client(workers, None) as client:
-        config = SweepConfig(n=fields, seed=seed, methods=["mfi"], out=out)
-        run = run_sweep(config, client, progress_stream=io.StringIO())
-    if run.ran != fields or run.lost:
-        raise RuntimeError(f"expected {fields} flights, ran {run.ran}: {run.lost}")
+def flights_per_minute(
+    workers: int, fields: int, seed: int, methods: list[str], engine: str
+) -> tuple[float, float]:
+    """(wall time [s], flights per minute) of `mfi-drake sweep` in a fresh
+    Python process: its imports, the local cluster's start-up and shutdown
+    and any compile included; on its default engine (`compiled` where every
+    method flies there) or, for "systems", with `--set 'engine: systems'`."""
+    command = [sys.executable, "-m", "mfi_drake.app.cli", "sweep", "--n", str(fields)]
+    command += ["--seed", str(seed), "--methods", ",".join(methods)]
+    command += ["--workers", str(workers)]
+    if engine == "systems":
+        command += ["--set", "engine: systems"]
+    with tempfile.TemporaryDirectory() as out:
+        start = time.perf_counter()
+        subprocess.run([*command, "--out", out], check=True, capture_output=True)
+        wall = time.perf_counter() - start
+        with open(os.path.join(out, "results.jsonl")) as f:
+            records = [json.loads(line) for line in f]
+    flights = fields * len(methods)
+    if len(records) != flights or {r["engine"] for r in records} != {engine}:
+        raise RuntimeError(f"expected {flights} flights on {engine}: {len(records)}")
+    return wall, 60.0 * flights / wall
 
 
-def flights_per_minute(workers: int, fields: int, seed: int) -> tuple[float, float]:
-    """(wall time [s], flights per minute) of one MFI sweep in a fresh
-    Python process, as `mfi-drake sweep` runs it: its imports, the local
-    cluster's start-up and shutdown included."""
-    start = time.perf_counter()
-    subprocess.run(
-        [sys.executable, __file__, "--one-sweep", str(workers), str(fields), str(seed)],
-        check=True,
-    )
-    wall = time.perf_counter() - start
-    return wall, 60.0 * fields / wall
-
-
-def sweeps(fields: int, seed: int, say) -> dict[int, float]:
-    """Part 3: flights per minute on 1 and 2 workers, each on fresh fields."""
+def sweeps(fields: int, seed: int, say) -> dict[str, float]:
+    """Part 3: flights per minute of `mfi-drake sweep`: MFI on 1 and 2
+    workers, and every method on 2 workers on each engine (the same fields
+    for both)."""
     say(
-        f"3. MFI sweep of {fields} fresh fields at density "
-        f"{generator.DEFAULT_DENSITY:g}, a fresh process each, start-up included:"
+        f"3. sweeps of {fields} fresh fields at density "
+        f"{generator.DEFAULT_DENSITY:g}, the whole command (a fresh process, "
+        "start-up and the cluster included; the compile cache warm):"
     )
+    runs = [
+        ("mfi", ["mfi"], 1, "compiled", seed + 1),
+        ("mfi", ["mfi"], 2, "compiled", seed + 2),
+        ("every method", list(DEFAULT_METHODS), 2, "systems", seed + 3),
+        ("every method", list(DEFAULT_METHODS), 2, "compiled", seed + 3),
+    ]
     rates = {}
-    for workers in (1, 2):
+    for label, methods, workers, engine, fields_seed in runs:
         before = load()
-        wall, rates[workers] = flights_per_minute(workers, fields, seed + workers)
-        plural = "s" if workers > 1 else " "
+        wall, rate = flights_per_minute(workers, fields, fields_seed, methods, engine)
+        key = f"{label}, {workers} worker{'s' if workers > 1 else ''}, {engine}"
+        rates[key] = rate
         say(
-            f"   {workers} worker{plural} (seed {seed + workers}): {wall:6.1f} s, "
-            f"{rates[workers]:6.1f} flights/min ({before} before)"
+            f"   {key:<38} (seed {fields_seed}): {wall:6.1f} s, "
+            f"{rate:6.1f} flights/min ({before} before)"
         )
+    gain = (
+        rates["every method, 2 workers, compiled"]
+        / rates["every method, 2 workers, systems"]
+    )
+    say(f"   every method on 2 workers, compiled / systems: x{gain:.2f}")
     return rates
 
 
@@ -452,13 +467,7 @@ def main(argv: list[str] | None = None) -> dict:
         "--scenarios", default="*.yaml", help="part 5's scenarios (a glob)"
     )
     parser.add_argument("--page", help="a page to write the output into")
-    parser.add_argument(
-        "--one-sweep", nargs=3, type=int, help=argparse.SUPPRESS
-    )  # WORKERS FIELDS SEED: part 3's child process
     args = parser.parse_args(argv)
-    if args.one_sweep:
-        one_sweep(*args.one_sweep)
-        return {}
     for name in ("repeats", "split", "fields", "compare"):
         if getattr(args, name) < 1:
             parser.error(f"--{name} = {getattr(args, name)}: must be >= 1")

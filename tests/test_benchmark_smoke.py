@@ -67,7 +67,16 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
         "metrics",
     }
     assert result["split"]["simulate"] > 0.0
-    assert set(result["rates"]) == {1, 2} and min(result["rates"].values()) > 0.0
+    # Part 3: the sweep command on each engine (each run checks that its
+    # records name the engine it was meant to fly).
+    assert set(result["rates"]) == {
+        "mfi, 1 worker, compiled",
+        "mfi, 2 workers, compiled",
+        "every method, 2 workers, systems",
+        "every method, 2 workers, compiled",
+    }
+    assert min(result["rates"].values()) > 0.0
+    assert "compiled / systems: x" in out
     written = page.read_text()
     assert "old" not in written and "flights/min" in written
     assert written.startswith("# P\n<!-- BEGIN throughput -->\n```\ncommit ")
