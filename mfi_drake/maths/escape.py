@@ -64,6 +64,7 @@ from mfi_drake.maths.layout import readings
 TOWARD = 0  # MFI toward the goal
 FOLLOW = 1  # traversal of a surface toward a subgoal
 TRAPPED = 2  # every axis exhausted: the goal cannot be reached
+PASS = 3  # through a gap between two surfaces (a door) seen while following
 AXES = 4  # ±e_z, ± the horizontal ⟂ the goal direction
 HITS = 4  # hit points remembered (a ring)
 
@@ -76,8 +77,12 @@ SURFACE_SEEN = 13  # 1 once SURFACE holds a point
 # The followed surface's closest point where the current axis's traversal
 # began (inf: none seen there): a loop closes only back on that surface.
 HIT_SURFACE = slice(14, 17)
-RING_NEXT = 17  # the ring's next slot
-RING = 18  # HITS rows of [x, y, z, next axis]
+LAST_P = slice(17, 20)  # p at the last step's update while following
+DOOR = slice(20, 23)  # the middle of the gap being passed (PASS)
+DOOR_AXIS = slice(23, 26)  # the unit direction through it
+PASSED = slice(26, 29)  # the middle of the last gap passed (inf: none)
+RING_NEXT = 29  # the ring's next slot
+RING = 30  # HITS rows of [x, y, z, next axis]
 MEMORY_SIZE = RING + 4 * HITS
 
 E_Z = np.array([0.0, 0.0, 1.0])
@@ -87,6 +92,15 @@ SWITCH = 0.25  # m, see followed_point
 # a gap (a door, a corridor), which the vehicle passes along; nearer, they
 # form a concave corner, where turning away from one turns toward the other.
 GAP_COSINE = -math.sqrt(0.5)
+# A door: the followed surface is rounded at an edge (its closest point moves
+# less than EDGE_RATIO times the vehicle's motion along it; a plane's moves
+# as much, a sphere's of radius ≥ 1 m at 0.7 m at least 0.6 as much) and
+# another reading's closest point lies GAP_MARGIN + 2R to DOOR_WIDEST away.
+EDGE_RATIO = 0.5
+GAP_MARGIN = 0.3  # m, beyond 2R: the door's clearance on both sides together
+DOOR_WIDEST = 2.0  # m; wider, rounding one jamb at r_f passes it (1.34 m)
+PASS_AHEAD = 1.0  # m, the subgoal's lead along the line through the door
+PASS_BEYOND = 1.0  # m past the door's middle: through
 
 
 @dataclass
@@ -126,6 +140,7 @@ def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
     """The memory at the start (t = 0): toward the goal, d_best = |r_g|."""
     memory = np.zeros(MEMORY_SIZE)
     memory[D_BEST] = np.linalg.norm(goal - p)
+    memory[PASSED] = np.inf
     memory[RING : RING + 4 * HITS] = np.tile([np.inf, np.inf, np.inf, 0.0], HITS)
     return memory
 
@@ -162,17 +177,7 @@ def followed_point(
     being rounded is kept, not the far one. The ground (height `ground`,
     None: none) is never followed: an endless plane cannot be gone round.
     The nearest where none is remembered; None if there is no candidate."""
-    points = []
-    for r_o, seen in readings(obstacle):
-        distance = np.linalg.norm(r_o)
-        grounded = ground is not None and p[2] + r_o[2] <= ground + ON_GROUND
-        if (
-            seen > 0.5
-            and distance > 1e-9
-            and abs(r_o @ a) < math.sqrt(0.5) * distance
-            and not grounded
-        ):
-            points.append((distance, p + r_o))
+    points = _candidates(obstacle, p, a, ground)
     if not points:
         return None
     nearest = points[0]  # readings come nearest first
@@ -185,6 +190,69 @@ def followed_point(
     # ahead at a concave corner (a room's right angle: 90° up to rounding).
     facing = (nearest[1] - p) @ (kept[1] - p) / (nearest[0] * kept[0])
     return nearest[1] if closer and facing > -1e-9 else kept[1]
+
+
+def _candidates(obstacle, p: np.ndarray, a: np.ndarray, ground) -> list:
+    """(distance, closest point) of the seen readings that can be followed
+    about axis a: not within 45° of ±a, not the ground; nearest first."""
+    points = []
+    for r_o, seen in readings(obstacle):
+        distance = np.linalg.norm(r_o)
+        grounded = ground is not None and p[2] + r_o[2] <= ground + ON_GROUND
+        if (
+            seen > 0.5
+            and distance > 1e-9
+            and abs(r_o @ a) < math.sqrt(0.5) * distance
+            and not grounded
+        ):
+            points.append((distance, p + r_o))
+    return points
+
+
+def door(
+    memory: np.ndarray,
+    obstacle,
+    p: np.ndarray,
+    a: np.ndarray,
+    collision_radius: float,
+    ground: float | None = None,
+):
+    """(middle, unit direction through) of a gap seen while following, or
+    None: the followed surface's closest point q has stayed put since the
+    last step (it moved less than EDGE_RATIO times the vehicle's motion ⟂
+    q − p: an edge, a jamb being rounded, not a wall's face, whose closest
+    point moves with the vehicle, as in a concave corner), and another
+    reading's closest point q' lies 2R + GAP_MARGIN to DOOR_WIDEST from q
+    (a separate obstacle, the far jamb: the sensor reads one closest point
+    an obstacle), its middle not the last gap passed. The way through is ⟂
+    q' − q, from the vehicle toward the line through the two."""
+    if not memory[SURFACE_SEEN]:
+        return None
+    points = _candidates(obstacle, p, a, ground)
+    if len(points) < 2:
+        return None
+    kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))[1]
+    n = (kept - p) / np.linalg.norm(kept - p)
+    step = p - memory[LAST_P]
+    along = np.linalg.norm(step - (step @ n) * n)
+    if not (
+        along > 1e-6 and np.linalg.norm(kept - memory[SURFACE]) < EDGE_RATIO * along
+    ):
+        return None
+    for _, other in points:
+        w = other - kept
+        gap = float(np.linalg.norm(w))
+        middle = (kept + other) / 2
+        if not 2 * collision_radius + GAP_MARGIN < gap < DOOR_WIDEST or (
+            np.linalg.norm(middle - memory[PASSED]) < gap
+        ):
+            continue
+        c = middle - p
+        through = c - (c @ w) * w / (gap * gap)
+        size = float(np.linalg.norm(through))
+        if size > 1e-6:
+            return middle, through / size
+    return None
 
 
 def corner_rate(k: float, v_d: float, r_b: float) -> float:
@@ -323,10 +391,26 @@ def update_memory(
         elif t - memory[T_BEST] > params.stall_time:
             _start_traversal(memory, p, v, obstacle, goal, near, params, ground)
         return memory
+    if phase == PASS:
+        # Through the door: toward the goal again; stuck before it (no way
+        # through after all): the traversal goes on.
+        if (p - memory[DOOR]) @ memory[DOOR_AXIS] > PASS_BEYOND:
+            memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
+        elif t - memory[T_BEST] > params.stall_time:
+            memory[PHASE], memory[LAST_P] = FOLLOW, p
+        return memory
     if d < memory[D_HIT] - params.leave_margin and not goal_hidden(obstacle, r_g):
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
-    q = followed_point(memory, obstacle, p, axis(memory, goal), near, ground)
+    a = axis(memory, goal)
+    gap = door(memory, obstacle, p, a, collision_radius, ground)
+    memory[LAST_P] = p
+    if gap is not None:
+        memory[DOOR], memory[DOOR_AXIS] = gap
+        memory[PASSED] = gap[0]
+        memory[PHASE], memory[T_BEST] = PASS, t
+        return memory
+    q = followed_point(memory, obstacle, p, a, near, ground)
     if q is not None:
         memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
     gone = np.linalg.norm(p - memory[HIT])
@@ -382,6 +466,13 @@ def subgoal(
 ) -> np.ndarray:
     """The point MFI steers to: the goal, or while following, `lookahead`
     ahead along u = s + κ ((p_g − p)·â) â (see the module docstring)."""
+    if memory[PHASE] == PASS:
+        # Along the line through the door's middle, PASS_AHEAD ahead of the
+        # vehicle's foot on it (pure pursuit: the offset from the line
+        # decays over about PASS_AHEAD of travel).
+        along = memory[DOOR_AXIS]
+        s = max(0.0, float((p - memory[DOOR]) @ along))
+        return memory[DOOR] + (s + PASS_AHEAD) * along
     if memory[PHASE] != FOLLOW:
         return goal
     a = axis(memory, goal)
