@@ -1,0 +1,73 @@
+"""The escape rule's door detector and its passage (maths.escape.door,
+phase PASS; docs/nonconvex.md, "The escape rule", rule 4)."""
+
+import numpy as np
+import pytest
+
+from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.maths import escape
+from mfi_drake.maths.layout import obstacle_signal
+
+RULE = escape.EscapeParams()
+RADIUS = VEHICLES["drake_default"].collision_radius
+GOAL = np.array([0.5, 5.0, 1.5])  # beyond a wall along y = 0
+P = np.array([0.0, -0.7, 1.5])  # 0.7 m before the near jamb's edge (the origin)
+STEP = np.array([0.05, 0.0, 0.0])  # the last step: along the wall, +x
+
+
+def following(surface_moved=(0.0, 0.0, 0.0)):
+    """The memory of a vehicle following the near jamb about +e_z whose
+    closest point was `surface_moved` from the origin at the last step."""
+    memory = escape.initial_memory(P - STEP, GOAL)
+    memory[escape.PHASE] = escape.FOLLOW
+    memory[escape.D_HIT] = 0.1  # never leave
+    memory[escape.SURFACE] = np.array([0.0, 0.0, 1.5]) + surface_moved
+    memory[escape.SURFACE_SEEN] = 1.0
+    memory[escape.LAST_P] = P - STEP
+    return memory
+
+
+def jambs(width):
+    """The readings at P: the near jamb's edge at the origin (height 1.5),
+    the far jamb's `width` along +x."""
+    near = np.array([0.0, 0.0, 1.5]) - P
+    return obstacle_signal([near, near + [width, 0.0, 0.0]])
+
+
+@pytest.mark.parametrize("width", [1.0, 1.1, 1.6])
+def test_a_door_by_hand(width):
+    """An edge rounded (its closest point stayed put while the vehicle moved
+    0.05 m along the wall) and the far jamb `width` away: a door, its middle
+    halfway along, the way through ⟂ the wall (+y); the memory passes it,
+    its subgoal on the line through the middle, PASS_AHEAD past the wall."""
+    found = escape.door(following(), jambs(width), P, escape.E_Z, RADIUS)
+    middle = np.array([width / 2, 0.0, 1.5])
+    assert found[0] == pytest.approx(middle)
+    assert found[1] == pytest.approx([0.0, 1.0, 0.0])
+    memory = escape.update_memory(
+        following(), 20.0, P, STEP / 0.05, jambs(width), GOAL, RADIUS, RULE
+    )
+    assert memory[escape.PHASE] == escape.PASS
+    target = escape.subgoal(memory, P, jambs(width), GOAL, RADIUS, RULE)
+    assert target == pytest.approx(middle + [0.0, escape.PASS_AHEAD, 0.0])
+    # Through: PASS_BEYOND past the middle, toward the goal again.
+    beyond = middle + [0.0, escape.PASS_BEYOND + 0.01, 0.0]
+    after = escape.update_memory(
+        memory, 21.0, beyond, STEP, jambs(9), GOAL, RADIUS, RULE
+    )
+    assert after[escape.PHASE] == escape.TOWARD
+    # The door passed is not passed again.
+    assert escape.door(after, jambs(width), P, escape.E_Z, RADIUS) is None
+
+
+def test_no_door_at_a_face_a_narrow_gap_or_a_corner():
+    """A face (its closest point moved with the vehicle), a gap narrower
+    than 2R + GAP_MARGIN, and a concave corner (two faces' feet 0.95 m
+    apart, what a 1 m door also looks like in one reading): no door."""
+    assert escape.door(following(STEP), jambs(1.0), P, escape.E_Z, RADIUS) is None
+    narrow = 2 * RADIUS + escape.GAP_MARGIN - 0.01
+    assert escape.door(following(), jambs(narrow), P, escape.E_Z, RADIUS) is None
+    corner = obstacle_signal([np.array([0.0, 0.7, 0.0]), np.array([0.67, 0.0, 0.0])])
+    memory = following(STEP)
+    memory[escape.SURFACE] = P + [-0.05, 0.7, 0.0]  # the foot on the wall at +y
+    assert escape.door(memory, corner, P, escape.E_Z, RADIUS) is None
