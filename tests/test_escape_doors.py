@@ -4,9 +4,13 @@ phase PASS; docs/nonconvex.md, "The escape rule", rule 4)."""
 import numpy as np
 import pytest
 
+from mfi_drake.config import scenario as sc
+from mfi_drake.config.dynamic import Ground
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.maths import escape
+from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import obstacle_signal
+from mfi_drake.world.nonconvex import room
 
 RULE = escape.EscapeParams()
 RADIUS = VEHICLES["drake_default"].collision_radius
@@ -71,3 +75,26 @@ def test_no_door_at_a_face_a_narrow_gap_or_a_corner():
     memory = following(STEP)
     memory[escape.SURFACE] = P + [-0.05, 0.7, 0.0]  # the foot on the wall at +y
     assert escape.door(memory, corner, P, escape.E_Z, RADIUS) is None
+
+
+def side_door_room(width: float, yaw_deg: float) -> sc.Scenario:
+    """The start inside a 4 × 4 × 3 m room on the ground, the goal 3 m
+    outside its +x wall; the one door, `width` wide and 2.2 m high, in the
+    +y wall near the +x corner: MFI stalls at the +x wall, and the rule,
+    following round it, meets the door side-on. Yawed by `yaw_deg` about
+    the start."""
+    goal = np.append(_turn(yaw_deg, (5.0, 0.0)), 1.5)
+    return sc.Scenario(
+        name=f"side_door_{width}_{yaw_deg}",
+        start=[0.0, 0.0, 1.5],
+        goal=goal.tolist(),
+        duration=40.0,
+        obstacles=room((0.0, 0.0), 4.0, 4.0, 3.0, yaw_deg, 1, 0.1, width, 2.2),
+        ground=Ground(height=0.0),
+        escape=escape.EscapeParams(stall_time=5.0),
+    )
+
+
+def _turn(yaw_deg: float, xy) -> np.ndarray:
+    c, s = np.cos(np.radians(yaw_deg)), np.sin(np.radians(yaw_deg))
+    return np.array([c * xy[0] - s * xy[1], s * xy[0] + c * xy[1]])

@@ -155,7 +155,10 @@ class EscapeNavigator(LeafSystem):
         v_d = self.params.v_d
         if target is not self.goal:
             v_d = self.rule.follow_speed
-        if self.rule.corner_brake:
+        # Through a door the jambs (and the ground or lintel) within r_b are
+        # the sides of the gap flown through, not a corner ahead: eq 14–15
+        # guard each, as MFI's do in any gap.
+        if self.rule.corner_brake and memory[escape.PHASE] != escape.PASS:
             v_d = min(
                 v_d,
                 escape.corner_speed(
