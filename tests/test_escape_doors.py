@@ -7,6 +7,7 @@ import pytest
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import escape
 from mfi_drake.maths.layout import obstacle_signal
 from mfi_drake.world.nonconvex import room
