@@ -33,7 +33,19 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   on a horizontal axis a traversal whose tangent leads down into it is
   skipped where it begins ("under" a surface on the ground) and exhausted
   where it comes down to within ρ of it.
-- Corner brake (any phase): in a concave corner eq 19's setpoint keeps
+- Door: while following, the followed surface rounded at an edge (its
+  closest point stays put as the vehicle moves along it: a jamb, not a
+  wall's face) and another reading's closest point 2R + `GAP_MARGIN` to
+  `DOOR_WIDEST` from it (a separate obstacle: the sensor reads one closest
+  point an obstacle, so the far jamb of a door in a wall of boxes is its
+  own reading) reveal a gap: the vehicle passes it along the line ⟂ the two
+  through their middle (phase PASS: pure pursuit of a subgoal
+  `PASS_AHEAD` ahead on that line), then goes toward the goal again; a gap
+  not passed within `stall_time` is given up and the traversal goes on;
+  the last gap passed is not passed again. (TangentBug's discontinuity
+  points of the range data, Kamon, Rimon, Rivlin, IJRR 17(9), 1998, read
+  from the closest points of separate obstacles.)
+- Corner brake (any phase but PASS): in a concave corner eq 19's setpoint keeps
   the closing speed toward each surface below c·r (`corner_speed`,
   `corner_rate`).
 - Leave: |r_g| < d_hit − `leave_margin` and no seen surface's tangent plane
@@ -48,7 +60,7 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   the phase is TRAPPED for good (3DBug: a loop without a leave ends the
   search).
 
-The memory (`MEMORY_SIZE` = 34 floats, a fixed layout below) is bounded in
+The memory (`MEMORY_SIZE` = 46 floats, a fixed layout below) is bounded in
 size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
 """
