@@ -1,5 +1,5 @@
 """The escape rule's door detector and its passage (maths.escape.door,
-phase PASS; docs/nonconvex.md, "The escape rule", rule 4)."""
+phase PASS; docs/nonconvex.md, "The escape rule", rule 7)."""
 
 import numpy as np
 import pytest
@@ -19,15 +19,18 @@ P = np.array([0.0, -0.7, 1.5])  # 0.7 m before the near jamb's edge (the origin)
 STEP = np.array([0.05, 0.0, 0.0])  # the last step: along the wall, +x
 
 
-def following(surface_moved=(0.0, 0.0, 0.0)):
+def following(surface_moved=(0.0, 0.0, 0.0), width=1.0):
     """The memory of a vehicle following the near jamb about +e_z whose
-    closest point was `surface_moved` from the origin at the last step."""
+    closest point was `surface_moved` from the origin at the last step, the
+    far jamb's `width` along +x, where it is now."""
     memory = escape.initial_memory(P - STEP, GOAL)
     memory[escape.PHASE] = escape.FOLLOW
     memory[escape.D_HIT] = 0.1  # never leave
     memory[escape.SURFACE] = np.array([0.0, 0.0, 1.5]) + surface_moved
     memory[escape.SURFACE_SEEN] = 1.0
     memory[escape.LAST_P] = P - STEP
+    last = [[0.0, 0.0, 1.5], [width, 0.0, 1.5], [np.inf] * 3]
+    memory[escape.LAST_POINTS] = np.ravel(last)
     return memory
 
 
@@ -44,12 +47,12 @@ def test_a_door_by_hand(width):
     0.05 m along the wall) and the far jamb `width` away: a door, its middle
     halfway along, the way through ⟂ the wall (+y); the memory passes it,
     its subgoal on the line through the middle, PASS_AHEAD past the wall."""
-    found = escape.door(following(), jambs(width), P, escape.E_Z, RADIUS)
+    found = escape.door(following(width=width), jambs(width), P, escape.E_Z, RADIUS)
     middle = np.array([width / 2, 0.0, 1.5])
     assert found[0] == pytest.approx(middle)
     assert found[1] == pytest.approx([0.0, 1.0, 0.0])
     memory = escape.update_memory(
-        following(), 20.0, P, STEP / 0.05, jambs(width), GOAL, RADIUS, RULE
+        following(width=width), 20.0, P, STEP / 0.05, jambs(width), GOAL, RADIUS, RULE
     )
     assert memory[escape.PHASE] == escape.PASS
     target = escape.subgoal(memory, P, jambs(width), GOAL, RADIUS, RULE)
@@ -66,11 +69,17 @@ def test_a_door_by_hand(width):
 
 def test_no_door_at_a_face_a_narrow_gap_or_a_corner():
     """A face (its closest point moved with the vehicle), a gap narrower
-    than 2R + GAP_MARGIN, and a concave corner (two faces' feet 0.95 m
-    apart, what a 1 m door also looks like in one reading): no door."""
+    than 2R + GAP_MARGIN, a far reading that is a face, and a concave
+    corner (two faces' feet 0.95 m apart, what a 1 m door also looks like
+    in one reading): no door."""
     assert escape.door(following(STEP), jambs(1.0), P, escape.E_Z, RADIUS) is None
     narrow = 2 * RADIUS + escape.GAP_MARGIN - 0.01
-    assert escape.door(following(), jambs(narrow), P, escape.E_Z, RADIUS) is None
+    memory = following(width=narrow)
+    assert escape.door(memory, jambs(narrow), P, escape.E_Z, RADIUS) is None
+    # The far reading a face (moved with the vehicle): a baffle's root wall.
+    memory = following()
+    memory[escape.LAST_POINTS][3] -= STEP[0]
+    assert escape.door(memory, jambs(1.0), P, escape.E_Z, RADIUS) is None
     corner = obstacle_signal([np.array([0.0, 0.7, 0.0]), np.array([0.67, 0.0, 0.0])])
     memory = following(STEP)
     memory[escape.SURFACE] = P + [-0.05, 0.7, 0.0]  # the foot on the wall at +y

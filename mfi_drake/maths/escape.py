@@ -60,7 +60,7 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   the phase is TRAPPED for good (3DBug: a loop without a leave ends the
   search).
 
-The memory (`MEMORY_SIZE` = 46 floats, a fixed layout below) is bounded in
+The memory (`MEMORY_SIZE` = 55 floats, a fixed layout below) is bounded in
 size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
 """
@@ -70,7 +70,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mfi_drake.maths.layout import readings
+from mfi_drake.maths.layout import OBSTACLE_COUNT, readings
 
 # Phases of the memory.
 TOWARD = 0  # MFI toward the goal
@@ -93,8 +93,11 @@ LAST_P = slice(17, 20)  # p at the last step's update while following
 DOOR = slice(20, 23)  # the middle of the gap being passed (PASS)
 DOOR_AXIS = slice(23, 26)  # the unit direction through it
 PASSED = slice(26, 29)  # the middle of the last gap passed (inf: none)
-RING_NEXT = 29  # the ring's next slot
-RING = 30  # HITS rows of [x, y, z, next axis]
+# The followable readings' closest points at the last step's update while
+# following (OBSTACLE_COUNT rows, inf where none): which stayed put.
+LAST_POINTS = slice(29, 29 + 3 * OBSTACLE_COUNT)
+RING_NEXT = LAST_POINTS.stop  # the ring's next slot
+RING = RING_NEXT + 1  # HITS rows of [x, y, z, next axis]
 MEMORY_SIZE = RING + 4 * HITS
 
 E_Z = np.array([0.0, 0.0, 1.0])
@@ -153,6 +156,7 @@ def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
     memory = np.zeros(MEMORY_SIZE)
     memory[D_BEST] = np.linalg.norm(goal - p)
     memory[PASSED] = np.inf
+    memory[LAST_POINTS] = np.inf
     memory[RING : RING + 4 * HITS] = np.tile([np.inf, np.inf, np.inf, 0.0], HITS)
     return memory
 
@@ -233,10 +237,11 @@ def door(
     None: the followed surface's closest point q has stayed put since the
     last step (it moved less than EDGE_RATIO times the vehicle's motion ⟂
     q − p: an edge, a jamb being rounded, not a wall's face, whose closest
-    point moves with the vehicle, as in a concave corner), and another
-    reading's closest point q' lies 2R + GAP_MARGIN to DOOR_WIDEST from q
-    (a separate obstacle, the far jamb: the sensor reads one closest point
-    an obstacle), its middle not the last gap passed. The way through is ⟂
+    point moves with the vehicle, as in a concave corner), and so has
+    another reading's closest point q' (the far jamb's edge, not the face
+    of the wall a baffle stands on), 2R + GAP_MARGIN to DOOR_WIDEST from q
+    (a separate obstacle: the sensor reads one closest point an obstacle),
+    their middle not the last gap passed. The way through is ⟂
     q' − q, from the vehicle toward the line through the two."""
     if not memory[SURFACE_SEEN]:
         return None
@@ -244,19 +249,18 @@ def door(
     if len(points) < 2:
         return None
     kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))[1]
-    n = (kept - p) / np.linalg.norm(kept - p)
-    step = p - memory[LAST_P]
-    along = np.linalg.norm(step - (step @ n) * n)
-    if not (
-        along > 1e-6 and np.linalg.norm(kept - memory[SURFACE]) < EDGE_RATIO * along
-    ):
+    if not _edge(kept, memory[SURFACE], p, memory[LAST_P]):
         return None
+    last = memory[LAST_POINTS].reshape(OBSTACLE_COUNT, 3)
     for _, other in points:
         w = other - kept
         gap = float(np.linalg.norm(w))
         middle = (kept + other) / 2
-        if not 2 * collision_radius + GAP_MARGIN < gap < DOOR_WIDEST or (
-            np.linalg.norm(middle - memory[PASSED]) < gap
+        before = last[np.argmin(np.linalg.norm(last - other, axis=1))]
+        if (
+            not 2 * collision_radius + GAP_MARGIN < gap < DOOR_WIDEST
+            or np.linalg.norm(middle - memory[PASSED]) < gap
+            or not _edge(other, before, p, memory[LAST_P])
         ):
             continue
         c = middle - p
@@ -265,6 +269,16 @@ def door(
         if size > 1e-6:
             return middle, through / size
     return None
+
+
+def _edge(q: np.ndarray, before: np.ndarray, p: np.ndarray, p_before) -> bool:
+    """Whether the closest point q (`before` at the last step, p_before the
+    vehicle's position then) stayed put while the vehicle moved across
+    q − p: an edge (EDGE_RATIO)."""
+    n = (q - p) / np.linalg.norm(q - p)
+    step = p - p_before
+    along = np.linalg.norm(step - (step @ n) * n)
+    return bool(along > 1e-6 and np.linalg.norm(q - before) < EDGE_RATIO * along)
 
 
 def corner_rate(k: float, v_d: float, r_b: float) -> float:
@@ -417,6 +431,10 @@ def update_memory(
     a = axis(memory, goal)
     gap = door(memory, obstacle, p, a, collision_radius, ground)
     memory[LAST_P] = p
+    points = np.full((OBSTACLE_COUNT, 3), np.inf)
+    for i, (_, point) in enumerate(_candidates(obstacle, p, a, ground)):
+        points[i] = point
+    memory[LAST_POINTS] = points.ravel()
     if gap is not None:
         memory[DOOR], memory[DOOR_AXIS] = gap
         memory[PASSED] = gap[0]
