@@ -33,7 +33,19 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   on a horizontal axis a traversal whose tangent leads down into it is
   skipped where it begins ("under" a surface on the ground) and exhausted
   where it comes down to within ρ of it.
-- Corner brake (any phase): in a concave corner eq 19's setpoint keeps
+- Door: while following, the followed surface rounded at an edge (its
+  closest point stays put as the vehicle moves along it: a jamb, not a
+  wall's face) and another reading's closest point 2R + `GAP_MARGIN` to
+  `DOOR_WIDEST` from it (a separate obstacle: the sensor reads one closest
+  point an obstacle, so the far jamb of a door in a wall of boxes is its
+  own reading) reveal a gap: the vehicle passes it along the line ⟂ the two
+  through their middle (phase PASS: pure pursuit of a subgoal
+  `PASS_AHEAD` ahead on that line), then goes toward the goal again; a gap
+  not passed within `stall_time` is given up and the traversal goes on;
+  the last gap passed is not passed again. (TangentBug's discontinuity
+  points of the range data, Kamon, Rimon, Rivlin, IJRR 17(9), 1998, read
+  from the closest points of separate obstacles.)
+- Corner brake (any phase but PASS): in a concave corner eq 19's setpoint keeps
   the closing speed toward each surface below c·r (`corner_speed`,
   `corner_rate`).
 - Leave: |r_g| < d_hit − `leave_margin` and no seen surface's tangent plane
@@ -48,7 +60,7 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   the phase is TRAPPED for good (3DBug: a loop without a leave ends the
   search).
 
-The memory (`MEMORY_SIZE` = 34 floats, a fixed layout below) is bounded in
+The memory (`MEMORY_SIZE` = 55 floats, a fixed layout below) is bounded in
 size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
 """
@@ -58,12 +70,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mfi_drake.maths.layout import readings
+from mfi_drake.maths.layout import OBSTACLE_COUNT, readings
 
 # Phases of the memory.
 TOWARD = 0  # MFI toward the goal
 FOLLOW = 1  # traversal of a surface toward a subgoal
 TRAPPED = 2  # every axis exhausted: the goal cannot be reached
+PASS = 3  # through a gap between two surfaces (a door) seen while following
 AXES = 4  # ±e_z, ± the horizontal ⟂ the goal direction
 HITS = 4  # hit points remembered (a ring)
 
@@ -76,8 +89,15 @@ SURFACE_SEEN = 13  # 1 once SURFACE holds a point
 # The followed surface's closest point where the current axis's traversal
 # began (inf: none seen there): a loop closes only back on that surface.
 HIT_SURFACE = slice(14, 17)
-RING_NEXT = 17  # the ring's next slot
-RING = 18  # HITS rows of [x, y, z, next axis]
+LAST_P = slice(17, 20)  # p at the last step's update while following
+DOOR = slice(20, 23)  # the middle of the gap being passed (PASS)
+DOOR_AXIS = slice(23, 26)  # the unit direction through it
+PASSED = slice(26, 29)  # the middle of the last gap passed (inf: none)
+# The followable readings' closest points at the last step's update while
+# following (OBSTACLE_COUNT rows, inf where none): which stayed put.
+LAST_POINTS = slice(29, 29 + 3 * OBSTACLE_COUNT)
+RING_NEXT = LAST_POINTS.stop  # the ring's next slot
+RING = RING_NEXT + 1  # HITS rows of [x, y, z, next axis]
 MEMORY_SIZE = RING + 4 * HITS
 
 E_Z = np.array([0.0, 0.0, 1.0])
@@ -87,6 +107,15 @@ SWITCH = 0.25  # m, see followed_point
 # a gap (a door, a corridor), which the vehicle passes along; nearer, they
 # form a concave corner, where turning away from one turns toward the other.
 GAP_COSINE = -math.sqrt(0.5)
+# A door: the followed surface is rounded at an edge (its closest point moves
+# less than EDGE_RATIO times the vehicle's motion along it; a plane's moves
+# as much, a sphere's of radius ≥ 1 m at 0.7 m at least 0.6 as much) and
+# another reading's closest point lies GAP_MARGIN + 2R to DOOR_WIDEST away.
+EDGE_RATIO = 0.5
+GAP_MARGIN = 0.3  # m, beyond 2R: the door's clearance on both sides together
+DOOR_WIDEST = 2.0  # m; wider, rounding one jamb at r_f passes it (1.34 m)
+PASS_AHEAD = 1.0  # m, the subgoal's lead along the line through the door
+PASS_BEYOND = 1.0  # m past the door's middle: through
 
 
 @dataclass
@@ -126,6 +155,8 @@ def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
     """The memory at the start (t = 0): toward the goal, d_best = |r_g|."""
     memory = np.zeros(MEMORY_SIZE)
     memory[D_BEST] = np.linalg.norm(goal - p)
+    memory[PASSED] = np.inf
+    memory[LAST_POINTS] = np.inf
     memory[RING : RING + 4 * HITS] = np.tile([np.inf, np.inf, np.inf, 0.0], HITS)
     return memory
 
@@ -162,17 +193,7 @@ def followed_point(
     being rounded is kept, not the far one. The ground (height `ground`,
     None: none) is never followed: an endless plane cannot be gone round.
     The nearest where none is remembered; None if there is no candidate."""
-    points = []
-    for r_o, seen in readings(obstacle):
-        distance = np.linalg.norm(r_o)
-        grounded = ground is not None and p[2] + r_o[2] <= ground + ON_GROUND
-        if (
-            seen > 0.5
-            and distance > 1e-9
-            and abs(r_o @ a) < math.sqrt(0.5) * distance
-            and not grounded
-        ):
-            points.append((distance, p + r_o))
+    points = _candidates(obstacle, p, a, ground)
     if not points:
         return None
     nearest = points[0]  # readings come nearest first
@@ -185,6 +206,79 @@ def followed_point(
     # ahead at a concave corner (a room's right angle: 90° up to rounding).
     facing = (nearest[1] - p) @ (kept[1] - p) / (nearest[0] * kept[0])
     return nearest[1] if closer and facing > -1e-9 else kept[1]
+
+
+def _candidates(obstacle, p: np.ndarray, a: np.ndarray, ground) -> list:
+    """(distance, closest point) of the seen readings that can be followed
+    about axis a: not within 45° of ±a, not the ground; nearest first."""
+    points = []
+    for r_o, seen in readings(obstacle):
+        distance = np.linalg.norm(r_o)
+        grounded = ground is not None and p[2] + r_o[2] <= ground + ON_GROUND
+        if (
+            seen > 0.5
+            and distance > 1e-9
+            and abs(r_o @ a) < math.sqrt(0.5) * distance
+            and not grounded
+        ):
+            points.append((distance, p + r_o))
+    return points
+
+
+def door(
+    memory: np.ndarray,
+    obstacle,
+    p: np.ndarray,
+    a: np.ndarray,
+    collision_radius: float,
+    ground: float | None = None,
+):
+    """(middle, unit direction through) of a gap seen while following, or
+    None: the followed surface's closest point q has stayed put since the
+    last step (it moved less than EDGE_RATIO times the vehicle's motion ⟂
+    q − p: an edge, a jamb being rounded, not a wall's face, whose closest
+    point moves with the vehicle, as in a concave corner), and so has
+    another reading's closest point q' (the far jamb's edge, not the face
+    of the wall a baffle stands on), 2R + GAP_MARGIN to DOOR_WIDEST from q
+    (a separate obstacle: the sensor reads one closest point an obstacle),
+    their middle not the last gap passed. The way through is ⟂
+    q' − q, from the vehicle toward the line through the two."""
+    if not memory[SURFACE_SEEN]:
+        return None
+    points = _candidates(obstacle, p, a, ground)
+    if len(points) < 2:
+        return None
+    kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))[1]
+    if not _edge(kept, memory[SURFACE], p, memory[LAST_P]):
+        return None
+    last = memory[LAST_POINTS].reshape(OBSTACLE_COUNT, 3)
+    for _, other in points:
+        w = other - kept
+        gap = float(np.linalg.norm(w))
+        middle = (kept + other) / 2
+        before = last[np.argmin(np.linalg.norm(last - other, axis=1))]
+        if (
+            not 2 * collision_radius + GAP_MARGIN < gap < DOOR_WIDEST
+            or np.linalg.norm(middle - memory[PASSED]) < gap
+            or not _edge(other, before, p, memory[LAST_P])
+        ):
+            continue
+        c = middle - p
+        through = c - (c @ w) * w / (gap * gap)
+        size = float(np.linalg.norm(through))
+        if size > 1e-6:
+            return middle, through / size
+    return None
+
+
+def _edge(q: np.ndarray, before: np.ndarray, p: np.ndarray, p_before) -> bool:
+    """Whether the closest point q (`before` at the last step, p_before the
+    vehicle's position then) stayed put while the vehicle moved across
+    q − p: an edge (EDGE_RATIO)."""
+    n = (q - p) / np.linalg.norm(q - p)
+    step = p - p_before
+    along = np.linalg.norm(step - (step @ n) * n)
+    return bool(along > 1e-6 and np.linalg.norm(q - before) < EDGE_RATIO * along)
 
 
 def corner_rate(k: float, v_d: float, r_b: float) -> float:
@@ -323,10 +417,30 @@ def update_memory(
         elif t - memory[T_BEST] > params.stall_time:
             _start_traversal(memory, p, v, obstacle, goal, near, params, ground)
         return memory
+    if phase == PASS:
+        # Through the door: toward the goal again; stuck before it (no way
+        # through after all): the traversal goes on.
+        if (p - memory[DOOR]) @ memory[DOOR_AXIS] > PASS_BEYOND:
+            memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
+        elif t - memory[T_BEST] > params.stall_time:
+            memory[PHASE], memory[LAST_P] = FOLLOW, p
+        return memory
     if d < memory[D_HIT] - params.leave_margin and not goal_hidden(obstacle, r_g):
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
-    q = followed_point(memory, obstacle, p, axis(memory, goal), near, ground)
+    a = axis(memory, goal)
+    gap = door(memory, obstacle, p, a, collision_radius, ground)
+    memory[LAST_P] = p
+    points = np.full((OBSTACLE_COUNT, 3), np.inf)
+    for i, (_, point) in enumerate(_candidates(obstacle, p, a, ground)):
+        points[i] = point
+    memory[LAST_POINTS] = points.ravel()
+    if gap is not None:
+        memory[DOOR], memory[DOOR_AXIS] = gap
+        memory[PASSED] = gap[0]
+        memory[PHASE], memory[T_BEST] = PASS, t
+        return memory
+    q = followed_point(memory, obstacle, p, a, near, ground)
     if q is not None:
         memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
     gone = np.linalg.norm(p - memory[HIT])
@@ -382,6 +496,13 @@ def subgoal(
 ) -> np.ndarray:
     """The point MFI steers to: the goal, or while following, `lookahead`
     ahead along u = s + κ ((p_g − p)·â) â (see the module docstring)."""
+    if memory[PHASE] == PASS:
+        # Along the line through the door's middle, PASS_AHEAD ahead of the
+        # vehicle's foot on it (pure pursuit: the offset from the line
+        # decays over about PASS_AHEAD of travel).
+        along = memory[DOOR_AXIS]
+        s = max(0.0, float((p - memory[DOOR]) @ along))
+        return memory[DOOR] + (s + PASS_AHEAD) * along
     if memory[PHASE] != FOLLOW:
         return goal
     a = axis(memory, goal)

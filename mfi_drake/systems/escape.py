@@ -17,8 +17,9 @@ F_gc(ĝ) − F_gc(g) (eq 16–18), which turns the selector's cruise pull
 toward the goal into one toward ĝ (repair (g)'s drag then sees F_o +
 F_gc(ĝ), the turning force flown). The redirection is ⟂ v, as F_gc is:
 it does no work. Eq 19's setpoint is the rule's follow_speed while
-following and, in any phase, at most `escape.corner_speed` in a concave
-corner (the corner brake, `EscapeParams.corner_brake`): "obstacle_force"
+following and, in any phase but PASS (through a door), at most
+`escape.corner_speed` in a concave corner (the corner brake,
+`EscapeParams.corner_brake`): "obstacle_force"
 adds F_v(setpoint) − F_v(v_d), which brakes along −l_a.
 "obstacle_force_terms" holds [F, F_a + redirection + brake]. The ground's
 height (`ground`, None without one) tells the rule which reading is the
@@ -155,7 +156,10 @@ class EscapeNavigator(LeafSystem):
         v_d = self.params.v_d
         if target is not self.goal:
             v_d = self.rule.follow_speed
-        if self.rule.corner_brake:
+        # Through a door the jambs (and the ground or lintel) within r_b are
+        # the sides of the gap flown through, not a corner ahead: eq 14–15
+        # guard each, as MFI's do in any gap.
+        if self.rule.corner_brake and memory[escape.PHASE] != escape.PASS:
             v_d = min(
                 v_d,
                 escape.corner_speed(
