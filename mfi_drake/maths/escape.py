@@ -276,14 +276,21 @@ def door(
     (a separate obstacle: the sensor reads one closest point an obstacle),
     their middle not the last gap passed. The way through is ⟂
     q' − q, from the vehicle toward the line through the two."""
+    middle, through = _gap(memory, obstacle, p, a, collision_radius, ground)
+    return (middle, through) if through.any() else None
+
+
+def _gap(memory, obstacle, p, a, collision_radius, ground) -> tuple:
+    """`door`'s (middle, unit direction through), `_no_gap` where there is
+    none (one type for numba)."""
     if not memory[SURFACE_SEEN]:
-        return None
+        return _no_gap()
     points = _candidates(obstacle, p, a, ground)
     if len(points) < 2:
-        return None
+        return _no_gap()
     kept = points[_kept(points, memory[SURFACE])][1]
     if not _edge(kept, memory[SURFACE], p, memory[LAST_P]):
-        return None
+        return _no_gap()
     last = memory[LAST_POINTS].reshape(OBSTACLE_COUNT, 3)
     for _, other in points:
         w = other - kept
@@ -301,7 +308,12 @@ def door(
         size = float(_norm(through))
         if size > 1e-6:
             return middle, through / size
-    return None
+    return _no_gap()
+
+
+def _no_gap() -> tuple:
+    """`_gap`'s answer where there is no gap: a zero direction."""
+    return np.zeros(3), np.zeros(3)
 
 
 def _edge(q: np.ndarray, before: np.ndarray, p: np.ndarray, p_before) -> bool:
@@ -351,19 +363,18 @@ def corner_speed(
         if s > 0.5 and _norm(r_o) - collision_radius < r_b
     ]
     normals = [r_o / _norm(r_o) for r_o in seen]
-    corner = any(
-        normals[i] @ normals[j] > GAP_COSINE
-        for i in range(len(normals))
-        for j in range(i)
-    )
+    corner = False
+    for i in range(len(normals)):
+        for j in range(i):
+            corner = corner or normals[i] @ normals[j] > GAP_COSINE
     speed = float(_norm(v))
     if not corner or speed < 1e-9:
         return math.inf
     limit = math.inf
-    for r_o, n in zip(seen, normals, strict=True):
-        closing = (v @ n) / speed  # l_a·n
+    for i in range(len(seen)):
+        closing = (v @ normals[i]) / speed  # l_a·n
         if closing > 0.0:
-            r = max(0.0, float(_norm(r_o)) - collision_radius)
+            r = max(0.0, float(_norm(seen[i])) - collision_radius)
             limit = min(limit, rate * r / closing)
     return limit
 
@@ -463,15 +474,15 @@ def update_memory(
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
     a = axis(memory, goal)
-    gap = door(memory, obstacle, p, a, collision_radius, ground)
+    middle, through = _gap(memory, obstacle, p, a, collision_radius, ground)
     memory[LAST_P] = p
     points = np.full((OBSTACLE_COUNT, 3), np.inf)
     for i, (_, point) in enumerate(_candidates(obstacle, p, a, ground)):
         points[i] = point
     memory[LAST_POINTS] = points.ravel()
-    if gap is not None:
-        memory[DOOR], memory[DOOR_AXIS] = gap
-        memory[PASSED] = gap[0]
+    if through.any():
+        memory[DOOR], memory[DOOR_AXIS] = middle, through
+        memory[PASSED] = middle
         memory[PHASE], memory[T_BEST] = PASS, t
         return memory
     q = followed_point(memory, obstacle, p, a, near, ground)
