@@ -113,11 +113,10 @@ class FleetChain(LeafSystem):
         # (eq 19's k = K_v/m) and the ground (escape.NO_GROUND: none).
         self._rule = None if rule is None else compiled.record(rule)
         self._ground = escape.NO_GROUND if ground is None else float(ground)
-        self._escape = (
-            self._rule,
-            escape.corner_rate(params.K_v / vehicle.mass, params.v_d, params.r_b),
-            self._ground,
-        )
+        rate = 0.0  # MFI's parameters only
+        if rule is not None:
+            rate = escape.corner_rate(params.K_v / vehicle.mass, params.v_d, params.r_b)
+        self._escape = (self._rule, rate, self._ground)
         self._memory_size = 0 if rule is None else escape.MEMORY_SIZE
         self._radius = vehicle.collision_radius
         self._forces = fleet.row_slices()["propeller_force"]
