@@ -63,6 +63,10 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
 The memory (`MEMORY_SIZE` = 55 floats, a fixed layout below) is bounded in
 size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
+
+`maths.compiled` compiles this module for the compiled engine: one
+source, so its functions take no optional tuples, generators or
+`min(key=)`, and the ground is a float (`NO_GROUND` for none) inside.
 """
 
 import math
@@ -248,7 +252,8 @@ def _ground_height(ground) -> float:
 
 
 def _norm(x: np.ndarray) -> float:
-    """|x| (numpy's; `maths.compiled` swaps in numpy's sum for numba's)."""
+    """|x|, numpy's √(x·x) (`maths.compiled` swaps in that form: numba's
+    norm differs in the last bit)."""
     return np.linalg.norm(x)
 
 

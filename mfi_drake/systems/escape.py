@@ -21,7 +21,9 @@ following and, in any phase but PASS (through a door), at most
 `escape.corner_speed` in a concave corner (the corner brake,
 `EscapeParams.corner_brake`): "obstacle_force"
 adds F_v(setpoint) − F_v(v_d), which brakes along −l_a.
-"obstacle_force_terms" holds [F, F_a + redirection + brake]. The ground's
+"obstacle_force_terms" holds [F, F_a + redirection + brake]: the maths
+is `escape.escape_terms`, which the compiled engine's chain calls too
+(`maths.fleet.fleet_chain`, the memory in `systems.fleet.FleetChain`). The ground's
 height (`ground`, None without one) tells the rule which reading is the
 ground: never followed, and nothing goes under it.
 Float only: `analyze` linearises the memoryless chain (`MfiNavigator`).
