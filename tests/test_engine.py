@@ -271,8 +271,11 @@ def test_a_new_stamp_prunes_the_stale_stamps_of_its_cache_directory(
     [
         (["run", WALL, "--set", "engine: fast"], "engine = 'fast': must be one of"),
         (
-            ["run", WALL, "--method", "mfi-nc", "--set", "engine: compiled"],
-            "engine = 'compiled': method mfi-nc",
+            [
+                *("run", f"{SCENARIOS}/swarm_corridor.yaml", "--method", "mfi-nc"),
+                *("--set", "fleet_integration: one"),
+            ],
+            "method mfi-nc: one integrator flies the escape rule alone",
         ),
         (
             ["run", f"{SCENARIOS}/swarm_corridor.yaml", "--set", "engine: compiled"],

@@ -14,7 +14,7 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import LOG_LAYOUT, build_diagram, vehicle_scenarios
 from mfi_drake.flight.fleet import OneIntegratorFleet, check_engine
 from mfi_drake.flight.simulation import simulate
-from mfi_drake.maths import compiled, fields, fleet
+from mfi_drake.maths import compiled, escape, fields, fleet
 from mfi_drake.maths.layout import ROTORS, STATE_SIZE
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
@@ -110,6 +110,10 @@ def chain_arguments(scene, states, scene_readings, modes, compiled_form):
         estimate.keep_right,
         estimate.own_pace,
         PACE_BLEND_SPEED,
+        np.zeros((len(states), 0)),  # no escape rule (mfi-nc's memories, ...)
+        None,
+        0.0,
+        escape.NO_GROUND,
     )
 
 

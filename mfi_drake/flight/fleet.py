@@ -38,6 +38,7 @@ from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths import baselines, fields
 from mfi_drake.maths.layout import ROTORS, STATE_SIZE
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
+from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.fleet import FleetChain
 from mfi_drake.systems.navigation import (
     GoalAttractionSelector,
@@ -68,9 +69,10 @@ COMPILED_FIELDS = (
 def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
-    and eq 21 selector (mfi, mfi-paper), or APF's or GF's field and
-    attraction; the sphere sensor, no moving obstacle, no faults, no
-    point-cloud map; a fleet with the relative velocity."""
+    and eq 21 selector (mfi, mfi-paper; mfi-nc's escape rule for a lone
+    vehicle), or APF's or GF's field and attraction; the sphere sensor, no
+    moving obstacle, no faults, no point-cloud map; a fleet with the
+    relative velocity."""
     method = resolve_method(method)
     navigator, selector = method_systems(scenario, method)
     mfi = (
@@ -78,14 +80,17 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         and selector.mass is not None
         and selector.fixed_mode is None
     )
+    escape = isinstance(navigator, EscapeNavigator)
+    if escape and scenario.other_vehicles:
+        return f"method {method.name}: one integrator flies the escape rule alone"
     if not (
-        isinstance(navigator, ObstacleNavigator)
-        and navigator.field in COMPILED_FIELDS
+        (escape or isinstance(navigator, ObstacleNavigator))
+        and field_of(navigator) in COMPILED_FIELDS
         and (mfi or isinstance(selector, PotentialGoalAttraction))
     ):
         return (
             f"method {method.name}: the compiled chain flies the fields of "
-            "mfi, mfi-paper, apf and gf only"
+            "mfi, mfi-paper, mfi-nc, apf and gf only"
         )
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
@@ -98,6 +103,14 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     if scenario.other_vehicles and not scenario.relative_velocity.enabled:
         return "relative_velocity.enabled = false: one integrator flies with it"
     return None
+
+
+def field_of(navigator) -> object:
+    """The obstacle field of a navigator system: an `ObstacleNavigator`'s,
+    MFI's for `EscapeNavigator` (`escape.escape_terms` aims it)."""
+    if isinstance(navigator, EscapeNavigator):
+        return fields.obstacle_field
+    return navigator.field
 
 
 def on_compiled(scenario: Scenario, methods: list) -> Scenario | None:
@@ -164,7 +177,7 @@ class OneIntegratorFleet:
             "fleet_chain",
             FleetChain(
                 [s.goal for s in self.flown],
-                navigator.field,
+                field_of(navigator),
                 attract,
                 navigator.params,
                 scenario.navigator,
@@ -174,6 +187,8 @@ class OneIntegratorFleet:
                 estimate.own_pace,
                 PACE_BLEND_SPEED,
                 scene,
+                getattr(navigator, "rule", None),  # mfi-nc's escape rule
+                getattr(navigator, "ground", None),
             ),
         )
         builder.Connect(states.get_output_port(0), chain.GetInputPort("states"))

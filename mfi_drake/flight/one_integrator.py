@@ -19,7 +19,11 @@ from mfi_drake.flight.monitors import (
     settles,
 )
 from mfi_drake.flight.result import Flight, fleet_flight
-from mfi_drake.flight.simulator import run_timed, simulator_at_start
+from mfi_drake.flight.simulator import (
+    advance_timed,
+    ended_trapped,
+    simulator_at_start,
+)
 from mfi_drake.maths.fleet import ROW_SIZE, row_slices
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, POSITION, STATE_SIZE
 
@@ -83,7 +87,7 @@ def fly_one_integrator(
         simulator.set_monitor(
             one_integrator_monitor(fleet_diagram, quiet, stop_at_contact)
         )
-    wall_time, cpu_time = run_timed(simulator, scenario.duration)
+    wall_time, cpu_time, status = advance_timed(simulator, scenario.duration)
     integrator = simulator.get_integrator()
     log = fleet_diagram.logger.FindLog(context)
     times = log.sample_times().copy()
@@ -104,4 +108,5 @@ def fly_one_integrator(
         )
         for k, flown in enumerate(fleet_diagram.flown)
     ]
+    flights[0].trapped = ended_trapped(status)  # mfi-nc's escape rule: alone
     return fleet_flight(flights)

@@ -13,7 +13,10 @@ run. A few helpers are swapped for their float forms:
 - `fields._zeros` and `fields._zero3` give float zeros;
 - `motion._length` is √(x² + y² + z²): numba's hypot takes two arguments
   (the two differ in the last bit);
-- `so3._value` (an AutoDiffXd's float) is the identity.
+- `so3._value` (an AutoDiffXd's float) is the identity;
+- `escape._norm` is √(x·x), numpy's norm of a vector (numba's norm differs
+  in the last bit), and `escape._row_norms` sums each row's squares in
+  numpy's order (numba's norm takes no axis).
 
 Matrix products (`@`: eq 16–18's rotations, GF's S ṗ) compile as they are:
 numba calls SciPy's BLAS, which sums as numpy's does (the same OpenBLAS
@@ -61,9 +64,18 @@ import types
 
 import numpy as np
 
-from mfi_drake.maths import baselines, fields, fleet, layout, motion, quadcopter, so3
+from mfi_drake.maths import (
+    baselines,
+    escape,
+    fields,
+    fleet,
+    layout,
+    motion,
+    quadcopter,
+    so3,
+)
 
-MODULES = (so3, layout, fields, baselines, motion, quadcopter, fleet)
+MODULES = (so3, layout, fields, baselines, motion, quadcopter, escape, fleet)
 
 
 def _identity(a):
@@ -82,6 +94,20 @@ def _float_length(x, y, z):
     return math.sqrt(x * x + y * y + z * z)
 
 
+def _float_norm(x):
+    return math.sqrt(np.dot(x, x))  # numpy's norm of a vector
+
+
+def _float_row_norms(x):
+    out = np.empty(len(x))
+    for i in range(len(x)):
+        total = 0.0  # numpy's sum of a row, in its order
+        for j in range(x.shape[1]):
+            total += x[i, j] * x[i, j]
+        out[i] = math.sqrt(total)
+    return out
+
+
 FLOAT_FORMS = {
     "sqrt": math.sqrt,
     "cos": math.cos,
@@ -94,6 +120,8 @@ FLOAT_FORMS = {
     "_zeros": _float_zeros,
     "_zero3": _float_zero3,
     "_length": _float_length,
+    "_norm": _float_norm,
+    "_row_norms": _float_row_norms,
 }
 
 

@@ -63,6 +63,10 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
 The memory (`MEMORY_SIZE` = 55 floats, a fixed layout below) is bounded in
 size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
+
+`maths.compiled` compiles this module for the compiled engine: one
+source, so its functions take no optional tuples, generators or
+`min(key=)`, and the ground is a float (`NO_GROUND` for none) inside.
 """
 
 import math
@@ -70,6 +74,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mfi_drake.maths.fields import (
+    goal_attraction_field,
+    speed_control_field,
+    superposed,
+)
 from mfi_drake.maths.layout import OBSTACLE_COUNT, readings
 
 # Phases of the memory.
@@ -101,6 +110,7 @@ RING = RING_NEXT + 1  # HITS rows of [x, y, z, next axis]
 MEMORY_SIZE = RING + 4 * HITS
 
 E_Z = np.array([0.0, 0.0, 1.0])
+NO_GROUND = -math.inf  # the ground's height where there is none
 ON_GROUND = 1e-3  # m: a reading whose point lies this near the ground is the ground's
 SWITCH = 0.25  # m, see followed_point
 # Two surfaces whose normals are further apart than 135° are the two sides of
@@ -154,7 +164,7 @@ class EscapeParams:
 def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
     """The memory at the start (t = 0): toward the goal, d_best = |r_g|."""
     memory = np.zeros(MEMORY_SIZE)
-    memory[D_BEST] = np.linalg.norm(goal - p)
+    memory[D_BEST] = _norm(goal - p)
     memory[PASSED] = np.inf
     memory[LAST_POINTS] = np.inf
     memory[RING : RING + 4 * HITS] = np.tile([np.inf, np.inf, np.inf, 0.0], HITS)
@@ -170,7 +180,7 @@ def axis(memory: np.ndarray, goal: np.ndarray) -> np.ndarray:
     if k < 2:
         return sign * (1.0 if k == 0 else -1.0) * E_Z
     side = np.cross(E_Z, goal - memory[HIT])
-    size = np.linalg.norm(side)
+    size = _norm(side)
     side = side / size if size > 1e-9 else np.array([0.0, 1.0, 0.0])
     return sign * (1.0 if k == 2 else -1.0) * side
 
@@ -194,12 +204,12 @@ def followed_point(
     None: none) is never followed: an endless plane cannot be gone round.
     The nearest where none is remembered; None if there is no candidate."""
     points = _candidates(obstacle, p, a, ground)
-    if not points:
+    if len(points) == 0:
         return None
     nearest = points[0]  # readings come nearest first
     if not memory[SURFACE_SEEN]:
         return nearest[1]
-    kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))
+    kept = points[_kept(points, memory[SURFACE])]
     closer = nearest[0] < near or nearest[0] < kept[0] - SWITCH
     # Normals more than 90° apart put the vehicle between the two surfaces:
     # the far jamb of a door it is rounding the near one into, not a wall
@@ -212,9 +222,10 @@ def _candidates(obstacle, p: np.ndarray, a: np.ndarray, ground) -> list:
     """(distance, closest point) of the seen readings that can be followed
     about axis a: not within 45° of ±a, not the ground; nearest first."""
     points = []
+    low = _ground_height(ground) + ON_GROUND
     for r_o, seen in readings(obstacle):
-        distance = np.linalg.norm(r_o)
-        grounded = ground is not None and p[2] + r_o[2] <= ground + ON_GROUND
+        distance = _norm(r_o)
+        grounded = p[2] + r_o[2] <= low
         if (
             seen > 0.5
             and distance > 1e-9
@@ -223,6 +234,33 @@ def _candidates(obstacle, p: np.ndarray, a: np.ndarray, ground) -> list:
         ):
             points.append((distance, p + r_o))
     return points
+
+
+def _kept(points: list, surface: np.ndarray) -> int:
+    """The index of the candidate (`_candidates`) whose point lies nearest
+    `surface`, the first of equals."""
+    best = 0
+    for i in range(1, len(points)):
+        if _norm(points[i][1] - surface) < _norm(points[best][1] - surface):
+            best = i
+    return best
+
+
+def _ground_height(ground) -> float:
+    """The ground's height, NO_GROUND (−∞) for None: nothing lies on it."""
+    return NO_GROUND if ground is None else ground
+
+
+def _norm(x: np.ndarray) -> float:
+    """|x|, numpy's √(x·x) (`maths.compiled` swaps in that form: numba's
+    norm differs in the last bit)."""
+    return np.linalg.norm(x)
+
+
+def _row_norms(x: np.ndarray) -> np.ndarray:
+    """The norms of the rows of x (numpy's; `maths.compiled` swaps in
+    numpy's sum: numba's norm takes no axis)."""
+    return np.linalg.norm(x, axis=1)
 
 
 def door(
@@ -243,42 +281,54 @@ def door(
     (a separate obstacle: the sensor reads one closest point an obstacle),
     their middle not the last gap passed. The way through is ⟂
     q' − q, from the vehicle toward the line through the two."""
+    middle, through = _gap(memory, obstacle, p, a, collision_radius, ground)
+    return (middle, through) if through.any() else None
+
+
+def _gap(memory, obstacle, p, a, collision_radius, ground) -> tuple:
+    """`door`'s (middle, unit direction through), `_no_gap` where there is
+    none (one type for numba)."""
     if not memory[SURFACE_SEEN]:
-        return None
+        return _no_gap()
     points = _candidates(obstacle, p, a, ground)
     if len(points) < 2:
-        return None
-    kept = min(points, key=lambda c: np.linalg.norm(c[1] - memory[SURFACE]))[1]
+        return _no_gap()
+    kept = points[_kept(points, memory[SURFACE])][1]
     if not _edge(kept, memory[SURFACE], p, memory[LAST_P]):
-        return None
+        return _no_gap()
     last = memory[LAST_POINTS].reshape(OBSTACLE_COUNT, 3)
     for _, other in points:
         w = other - kept
-        gap = float(np.linalg.norm(w))
+        gap = float(_norm(w))
         middle = (kept + other) / 2
-        before = last[np.argmin(np.linalg.norm(last - other, axis=1))]
+        before = last[np.argmin(_row_norms(last - other))]
         if (
             not 2 * collision_radius + GAP_MARGIN < gap < DOOR_WIDEST
-            or np.linalg.norm(middle - memory[PASSED]) < gap
+            or _norm(middle - memory[PASSED]) < gap
             or not _edge(other, before, p, memory[LAST_P])
         ):
             continue
         c = middle - p
         through = c - (c @ w) * w / (gap * gap)
-        size = float(np.linalg.norm(through))
+        size = float(_norm(through))
         if size > 1e-6:
             return middle, through / size
-    return None
+    return _no_gap()
+
+
+def _no_gap() -> tuple:
+    """`_gap`'s answer where there is no gap: a zero direction."""
+    return np.zeros(3), np.zeros(3)
 
 
 def _edge(q: np.ndarray, before: np.ndarray, p: np.ndarray, p_before) -> bool:
     """Whether the closest point q (`before` at the last step, p_before the
     vehicle's position then) stayed put while the vehicle moved across
     q − p: an edge (EDGE_RATIO)."""
-    n = (q - p) / np.linalg.norm(q - p)
+    n = (q - p) / _norm(q - p)
     step = p - p_before
-    along = np.linalg.norm(step - (step @ n) * n)
-    return bool(along > 1e-6 and np.linalg.norm(q - before) < EDGE_RATIO * along)
+    along = _norm(step - (step @ n) * n)
+    return bool(along > 1e-6 and _norm(q - before) < EDGE_RATIO * along)
 
 
 def corner_rate(k: float, v_d: float, r_b: float) -> float:
@@ -315,22 +365,21 @@ def corner_speed(
     seen = [
         r_o
         for r_o, s in readings(obstacle)
-        if s > 0.5 and np.linalg.norm(r_o) - collision_radius < r_b
+        if s > 0.5 and _norm(r_o) - collision_radius < r_b
     ]
-    normals = [r_o / np.linalg.norm(r_o) for r_o in seen]
-    corner = any(
-        normals[i] @ normals[j] > GAP_COSINE
-        for i in range(len(normals))
-        for j in range(i)
-    )
-    speed = float(np.linalg.norm(v))
+    normals = [r_o / _norm(r_o) for r_o in seen]
+    corner = False
+    for i in range(len(normals)):
+        for j in range(i):
+            corner = corner or normals[i] @ normals[j] > GAP_COSINE
+    speed = float(_norm(v))
     if not corner or speed < 1e-9:
         return math.inf
     limit = math.inf
-    for r_o, n in zip(seen, normals, strict=True):
-        closing = (v @ n) / speed  # l_a·n
+    for i in range(len(seen)):
+        closing = (v @ normals[i]) / speed  # l_a·n
         if closing > 0.0:
-            r = max(0.0, float(np.linalg.norm(r_o)) - collision_radius)
+            r = max(0.0, float(_norm(seen[i])) - collision_radius)
             limit = min(limit, rate * r / closing)
     return limit
 
@@ -339,7 +388,7 @@ def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
     """Whether a seen surface's tangent plane at its closest point lies
     between the vehicle and the goal: r_g·n > |r_o|."""
     for r_o, seen in readings(obstacle):
-        distance = np.linalg.norm(r_o)
+        distance = _norm(r_o)
         if seen > 0.5 and distance > 1e-9 and r_g @ r_o > distance * distance:
             return True
     return False
@@ -348,12 +397,13 @@ def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
 def _start_traversal(memory, p, v, obstacle, goal, near, params, ground) -> None:
     """A trap at p: remember the hit point and pick its axis and sign."""
     ring = memory[RING : RING + 4 * HITS].reshape(HITS, 4)
-    gaps = np.linalg.norm(ring[:, :3] - p, axis=1)
+    gaps = _row_norms(ring[:, :3] - p)
     slot = int(np.argmin(gaps))
     if not gaps[slot] < params.revisit_radius:
         slot = int(memory[RING_NEXT])
         memory[RING_NEXT] = (slot + 1) % HITS
-        ring[slot] = [*p, 0.0]
+        ring[slot, :3] = p
+        ring[slot, 3] = 0.0
     k = int(ring[slot, 3])
     memory[HIT] = p
     memory[D_HIT] = memory[D_BEST]
@@ -375,7 +425,7 @@ def _begin_axis(memory, k, p, obstacle, goal, near, ground) -> None:
     ground, an axis whose tangent at p points down is skipped: "under" a
     surface standing on the ground is impossible."""
     ring = memory[RING : RING + 4 * HITS].reshape(HITS, 4)
-    slot = int(np.argmin(np.linalg.norm(ring[:, :3] - memory[HIT], axis=1)))
+    slot = int(np.argmin(_row_norms(ring[:, :3] - memory[HIT])))
     memory[AWAY] = 0.0
     memory[HIT_SURFACE] = np.inf
     for each in range(k, AXES):
@@ -410,7 +460,7 @@ def update_memory(
     if phase == TRAPPED:
         return memory
     r_g = goal - p
-    d = float(np.linalg.norm(r_g))
+    d = float(_norm(r_g))
     if phase == TOWARD:
         if d < memory[D_BEST] - params.progress:
             memory[D_BEST], memory[T_BEST] = d, t
@@ -429,21 +479,21 @@ def update_memory(
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
     a = axis(memory, goal)
-    gap = door(memory, obstacle, p, a, collision_radius, ground)
+    middle, through = _gap(memory, obstacle, p, a, collision_radius, ground)
     memory[LAST_P] = p
     points = np.full((OBSTACLE_COUNT, 3), np.inf)
     for i, (_, point) in enumerate(_candidates(obstacle, p, a, ground)):
         points[i] = point
     memory[LAST_POINTS] = points.ravel()
-    if gap is not None:
-        memory[DOOR], memory[DOOR_AXIS] = gap
-        memory[PASSED] = gap[0]
+    if through.any():
+        memory[DOOR], memory[DOOR_AXIS] = middle, through
+        memory[PASSED] = middle
         memory[PHASE], memory[T_BEST] = PASS, t
         return memory
     q = followed_point(memory, obstacle, p, a, near, ground)
     if q is not None:
         memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
-    gone = np.linalg.norm(p - memory[HIT])
+    gone = _norm(p - memory[HIT])
     if gone > 2.0 * params.loop_radius:
         memory[AWAY] = 1.0
     looped = (
@@ -456,7 +506,7 @@ def update_memory(
     grounded = (
         q is not None
         and _into_ground(memory, p, q, goal, ground)
-        and p[2] - ground < near
+        and p[2] - _ground_height(ground) < near
     )
     if looped or grounded:
         _begin_axis(memory, int(memory[AXIS]) + 1, p, obstacle, goal, near, ground)
@@ -468,7 +518,7 @@ def _into_ground(memory, p, q, goal, ground) -> bool:
     leads down above a ground: on a horizontal axis (k ≥ 2: circulation in a
     vertical plane) that is "under", impossible for a surface standing on
     the ground, and the ground itself cannot be gone round."""
-    if ground is None or memory[AXIS] < 2:
+    if _ground_height(ground) == NO_GROUND or memory[AXIS] < 2:
         return False
     return bool(np.cross(axis(memory, goal), q - p)[2] < 0.0)
 
@@ -482,7 +532,7 @@ def _on_hit_surface(memory: np.ndarray, radius: float) -> bool:
     start = memory[HIT_SURFACE]
     if not memory[SURFACE_SEEN] or not np.isfinite(start).all():
         return True
-    return bool(np.linalg.norm(memory[SURFACE] - start) < radius)
+    return bool(_norm(memory[SURFACE] - start) < radius)
 
 
 def subgoal(
@@ -496,29 +546,34 @@ def subgoal(
 ) -> np.ndarray:
     """The point MFI steers to: the goal, or while following, `lookahead`
     ahead along u = s + κ ((p_g − p)·â) â (see the module docstring)."""
+    return _aim(memory, p, obstacle, goal, collision_radius, params, ground)[0]
+
+
+def _aim(memory, p, obstacle, goal, collision_radius, params, ground) -> tuple:
+    """(`subgoal`, whether it is not the goal itself)."""
     if memory[PHASE] == PASS:
         # Along the line through the door's middle, PASS_AHEAD ahead of the
         # vehicle's foot on it (pure pursuit: the offset from the line
         # decays over about PASS_AHEAD of travel).
         along = memory[DOOR_AXIS]
         s = max(0.0, float((p - memory[DOOR]) @ along))
-        return memory[DOOR] + (s + PASS_AHEAD) * along
+        return memory[DOOR] + (s + PASS_AHEAD) * along, True
     if memory[PHASE] != FOLLOW:
-        return goal
+        return goal, False
     a = axis(memory, goal)
     near = collision_radius + params.follow_distance
     q = followed_point(memory, obstacle, p, a, near, ground)
     if q is None:
         if not memory[SURFACE_SEEN]:
-            return goal
+            return goal, False
         q = memory[SURFACE]
     r_o = q - p
-    distance = float(np.linalg.norm(r_o))
+    distance = float(_norm(r_o))
     n = r_o / distance
     t = np.cross(a, n)
-    size = np.linalg.norm(t)
+    size = _norm(t)
     if size < 1e-6:
-        return goal
+        return goal, False
     if distance > near:
         # Outside the circle of radius R + r_f round the followed point:
         # along the tangent from p to that circle, angle asin(near/|r_o|)
@@ -534,7 +589,54 @@ def subgoal(
     # about a horizontal axis, to the vertical plane through H and the goal
     # (Bug algorithms' plane through the goal). Off it, a lintel or a ceiling
     # can stand in for the wall it follows and hide a door.
-    unit = a / np.linalg.norm(a)
+    unit = a / _norm(a)
     level = max(-1.0, min(1.0, params.hug * ((goal - p) @ unit)))
     u = surface + level * unit
-    return p + params.lookahead * u / np.linalg.norm(u)
+    return p + params.lookahead * u / _norm(u), True
+
+
+def escape_terms(
+    field,
+    memory: np.ndarray,
+    p: np.ndarray,
+    v: np.ndarray,
+    obstacle: np.ndarray,
+    goal: np.ndarray,
+    collision_radius: float,
+    navigator,
+    rule: EscapeParams,
+    rate: float,
+    ground: float | None = None,
+) -> tuple:
+    """(A, B, subgoal ĝ): MFI's obstacle terms (`superposed` of `field`,
+    MFI's `obstacle_field`, of parameters `navigator`) aimed at ĝ, B with
+    the rule's changes to eq 19 and 16–18 (systems.escape): eq 19 at the
+    follow speed while ĝ is not the goal, at most `corner_speed` (gain
+    `rate`, `corner_rate`) in a concave corner outside PASS, F_v(setpoint)
+    − F_v(v_d) added; and the redirection F_gc(ĝ) − F_gc(g)."""
+    target, steered = _aim(memory, p, obstacle, goal, collision_radius, rule, ground)
+    v_d = navigator.v_d
+    if steered:
+        v_d = rule.follow_speed
+    # Through a door the jambs (and the ground or lintel) within r_b are
+    # the sides of the gap flown through, not a corner ahead: eq 14–15
+    # guard each, as MFI's do in any gap.
+    if rule.corner_brake and memory[PHASE] != PASS:
+        corner = corner_speed(obstacle, v, collision_radius, navigator.r_b, rate)
+        v_d = min(v_d, corner)
+    A, B = superposed(field, v, obstacle, target - p, collision_radius, navigator)
+    if v_d < navigator.v_d:
+        # Eq 19 at the lower speed setpoint instead of v_d.
+        B = (
+            B
+            + speed_control_field(v, navigator.K_v, v_d)
+            - speed_control_field(v, navigator.K_v, navigator.v_d)
+        )
+    if steered:
+        smooth, K = navigator.smooth_goal_turn, navigator.K_omega
+        B = (
+            B
+            + goal_attraction_field(v, target - p, K, smooth)
+            - goal_attraction_field(v, goal - p, K, smooth)
+        )
+    return A, B, target

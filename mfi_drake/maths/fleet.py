@@ -9,6 +9,7 @@ functions the single-vehicle systems call, in the order they call them
 
 import numpy as np
 
+from mfi_drake.maths.escape import escape_terms
 from mfi_drake.maths.fields import next_mode, superposed
 from mfi_drake.maths.layout import POSITION, VELOCITY, slices
 from mfi_drake.maths.motion import relative_field, vehicle_readings
@@ -53,6 +54,10 @@ def fleet_chain(
     keep_right: float,
     own_pace: bool,
     blend_speed: float,
+    memories: np.ndarray,
+    rule,
+    rate: float,
+    ground: float,
     rows: np.ndarray,
 ) -> None:
     """Fills `rows` (N, ROW_SIZE) with each vehicle's ROW at the fleet's
@@ -70,14 +75,33 @@ def fleet_chain(
     field's (`relative_field`). A lone vehicle
     (N = 1) reads the static scene with its own velocity, as the
     single-vehicle navigator does (`superposed`; `flight.chain.navigator_of`
-    takes the relative field only where something else moves)."""
+    takes the relative field only where something else moves). `rule`:
+    the escape rule's parameters (mfi-nc, a lone vehicle; None: none),
+    which aims the field at the subgoal of the memory `memories[k]` with
+    the corner gain `rate` above the ground at height `ground`
+    (`escape.escape_terms`)."""
     centres, velocities = states[:, POSITION], states[:, VELOCITY]
     for k in range(len(states)):
         x, mode, goal = states[k], modes[k], goals[k]
         p, v = x[POSITION], x[VELOCITY]
         if len(states) == 1:  # alone: the static scene's field (`superposed`)
             obstacle = scene[k]
-            A, B = superposed(field, v, obstacle, goal - p, radius, params)
+            if rule is None:
+                A, B = superposed(field, v, obstacle, goal - p, radius, params)
+            else:  # mfi-nc: MFI's field aimed at the escape rule's subgoal
+                A, B, _ = escape_terms(
+                    field,
+                    memories[k],
+                    p,
+                    v,
+                    obstacle,
+                    goal,
+                    radius,
+                    params,
+                    rule,
+                    rate,
+                    ground,
+                )
             F_o, terms = A + B, np.concatenate((A, B))
         else:
             obstacle, u, flags = vehicle_readings(

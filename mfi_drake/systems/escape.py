@@ -21,7 +21,9 @@ following and, in any phase but PASS (through a door), at most
 `escape.corner_speed` in a concave corner (the corner brake,
 `EscapeParams.corner_brake`): "obstacle_force"
 adds F_v(setpoint) − F_v(v_d), which brakes along −l_a.
-"obstacle_force_terms" holds [F, F_a + redirection + brake]. The ground's
+"obstacle_force_terms" holds [F, F_a + redirection + brake]: the maths
+is `escape.escape_terms`, which the compiled engine's chain calls too
+(`maths.fleet.fleet_chain`, the memory in `systems.fleet.FleetChain`). The ground's
 height (`ground`, None without one) tells the rule which reading is the
 ground: never followed, and nothing goes under it.
 Float only: `analyze` linearises the memoryless chain (`MfiNavigator`).
@@ -144,49 +146,17 @@ class EscapeNavigator(LeafSystem):
 
     def terms_of(self, x, obstacle, memory) -> tuple:
         p, v = position_velocity(x)
-        target = escape.subgoal(
+        A, B, target = escape.escape_terms(
+            fields.obstacle_field,
             memory,
             p,
+            v,
             obstacle,
             self.goal,
             self.collision_radius,
+            self.params,
             self.rule,
+            self._rate,
             self.ground,
         )
-        v_d = self.params.v_d
-        if target is not self.goal:
-            v_d = self.rule.follow_speed
-        # Through a door the jambs (and the ground or lintel) within r_b are
-        # the sides of the gap flown through, not a corner ahead: eq 14–15
-        # guard each, as MFI's do in any gap.
-        if self.rule.corner_brake and memory[escape.PHASE] != escape.PASS:
-            v_d = min(
-                v_d,
-                escape.corner_speed(
-                    obstacle, v, self.collision_radius, self.params.r_b, self._rate
-                ),
-            )
-        A, B = fields.superposed(
-            fields.obstacle_field,
-            v,
-            obstacle,
-            target - p,
-            self.collision_radius,
-            self.params,
-        )
-        if v_d < self.params.v_d:
-            # Eq 19 at the lower speed setpoint instead of v_d.
-            B = (
-                B
-                + fields.speed_control_field(v, self.params.K_v, v_d)
-                - fields.speed_control_field(v, self.params.K_v, self.params.v_d)
-            )
-        if target is not self.goal:
-            smooth = self.params.smooth_goal_turn
-            K = self.params.K_omega
-            B = (
-                B
-                + fields.goal_attraction_field(v, target - p, K, smooth)
-                - fields.goal_attraction_field(v, self.goal - p, K, smooth)
-            )
         return A, B, A + B, target

@@ -8,7 +8,10 @@
 (`maths.compiled`), for every vehicle in one call: the per-call cost of a
 Python system is paid once for the fleet, not once per vehicle and system.
 Eq 21's modes are its discrete state, one a vehicle, updated at the start
-of every integrator step (`fleet_modes`). A lone vehicle (the compiled
+of every integrator step (`fleet_modes`); for mfi-nc (a lone vehicle) the
+escape rule's memory follows them in the same vector, updated then too
+(`escape.update_memory`, as `EscapeNavigator` does), and TRAPPED ends the
+flight as it does there (`TRAPPED_MESSAGE`). A lone vehicle (the compiled
 engine, `engine: compiled`) also has the single-vehicle selector's witness
 functions (`navigation.mode_witnesses`), so that the integrator locates
 each switch as the card's diagram does; a fleet has none (a witness a
@@ -19,14 +22,21 @@ the start of the step after the crossing.
 import copy
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.vehicles import Vehicle
-from mfi_drake.maths import compiled, fields, fleet
+from mfi_drake.maths import compiled, escape, fields, fleet
 from mfi_drake.maths.fields import MODE_PD
-from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
+from mfi_drake.maths.layout import (
+    OBSTACLE_SIGNAL_SIZE,
+    POSITION,
+    ROTORS,
+    STATE_SIZE,
+    VELOCITY,
+)
 from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
+from mfi_drake.systems.escape import TRAPPED_MESSAGE
 from mfi_drake.systems.last_result import LastResult
 from mfi_drake.systems.navigation import mode_witnesses
 
@@ -57,6 +67,8 @@ class FleetChain(LeafSystem):
     `fields.obstacle_field` and eq 21's `fields.goal_terms`, or a
     baseline's field and `baselines.attraction_terms`) and their
     parameters; `attitude`: the attitude PD's (the scenario's `navigator`).
+    `rule`: the escape rule's parameters (mfi-nc; a lone vehicle only),
+    `ground`: the ground's height it reads (None: none).
     """
 
     def __init__(
@@ -72,10 +84,14 @@ class FleetChain(LeafSystem):
         own_pace: bool,
         blend_speed: float,
         scene: bool,
+        rule: escape.EscapeParams | None = None,
+        ground: float | None = None,
     ):
         super().__init__()
         self._goals = np.array(goals, float)
         n = len(self._goals)
+        if rule is not None and n != 1:
+            raise ValueError(f"rule: the escape rule flies a lone vehicle, not {n}")
         K_P, K_D = attitude_gains(vehicle, attitude)
         # Copies of the parameters, in the compiled functions' form.
         self._constants = (
@@ -93,6 +109,16 @@ class FleetChain(LeafSystem):
             float(blend_speed),
         )
         self._params = self._constants[0]
+        # The escape rule's: its parameters, the corner brake's gain
+        # (eq 19's k = K_v/m) and the ground (escape.NO_GROUND: none).
+        self._rule = None if rule is None else compiled.record(rule)
+        self._ground = escape.NO_GROUND if ground is None else float(ground)
+        rate = 0.0  # MFI's parameters only
+        if rule is not None:
+            rate = escape.corner_rate(params.K_v / vehicle.mass, params.v_d, params.r_b)
+        self._escape = (self._rule, rate, self._ground)
+        self._memory_size = 0 if rule is None else escape.MEMORY_SIZE
+        self._radius = vehicle.collision_radius
         self._forces = fleet.row_slices()["propeller_force"]
         # Compiled here, not within the flight: each function's entry for
         # the types every later call passes (`compiled.specialised`).
@@ -108,8 +134,23 @@ class FleetChain(LeafSystem):
             np.zeros(n),
             self._goals,
             *self._constants,
+            np.zeros((n, self._memory_size)),
+            *self._escape,
             np.zeros((n, fleet.ROW_SIZE)),
         )
+        if rule is not None:
+            self._update_memory = compiled.specialised(
+                compiled.compiled(escape).update_memory,
+                np.zeros(escape.MEMORY_SIZE),
+                0.0,
+                at_rest[0, POSITION],
+                at_rest[0, VELOCITY],
+                self._no_scene[0],
+                self._goals[0],
+                vehicle.collision_radius,
+                self._rule,
+                self._ground,
+            )
         # Eq 21's modes switch with MFI's selector only; the baselines'
         # attraction stays in PD.
         self._selects = attract is fields.goal_terms
@@ -128,11 +169,14 @@ class FleetChain(LeafSystem):
         if scene:
             self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE * n)
             tickets.add(self._scene.ticket())
-        self._modes = self.DeclareDiscreteState(np.full(n, float(MODE_PD)))
+        # The one discrete state group: the modes, then the memory (mfi-nc).
+        self._modes = self.DeclareDiscreteState(
+            np.concatenate((np.full(n, float(MODE_PD)), np.zeros(self._memory_size)))
+        )
         tickets.add(self.discrete_state_ticket(self._modes))
-        if self._selects:
-            self.DeclareInitializationUnrestrictedUpdateEvent(self._update_modes)
-            self.DeclarePerStepUnrestrictedUpdateEvent(self._update_modes)
+        if self._selects or rule is not None:
+            self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
+            self.DeclarePerStepUnrestrictedUpdateEvent(self._update)
         self._witness = None
         if n == 1 and self._selects:
             self._witness = mode_witnesses(
@@ -157,12 +201,51 @@ class FleetChain(LeafSystem):
             prerequisites_of_calc=tickets,
         )
 
-    def _update_modes(self, context, state):
-        states = np.array(self._states.Eval(context)).reshape(-1, STATE_SIZE)
-        modes = np.array(context.get_discrete_state(self._modes).value())
-        new = np.empty_like(modes)
-        self._next_modes(states, self._goals, modes, self._params, new)
+    def _initialize(self, context, state):
+        """Eq 21's modes from scratch and the escape rule's first memory
+        (`escape.initial_memory`)."""
+        states, new = self._with_modes(context)
+        if self._rule is not None:
+            p = states[0, POSITION]
+            new[len(states) :] = escape.initial_memory(p, self._goals[0])
         state.get_mutable_discrete_state(self._modes).SetFromVector(new)
+
+    def _update(self, context, state):
+        """Eq 21's modes and the escape rule's memory (`update_memory`, as
+        `EscapeNavigator`'s update) at the start of a step; TRAPPED ends
+        the flight as there."""
+        states, new = self._with_modes(context)
+        n = len(states)
+        if self._rule is not None:
+            scene = self._no_scene[0]
+            if self._scene is not None:
+                scene = np.array(self._scene.Eval(context))
+            new[n:] = self._update_memory(
+                new[n:],
+                context.get_time(),
+                states[0, POSITION],
+                states[0, VELOCITY],
+                scene,
+                self._goals[0],
+                self._radius,
+                self._rule,
+                self._ground,
+            )
+        state.get_mutable_discrete_state(self._modes).SetFromVector(new)
+        if self._rule is not None and new[n + escape.PHASE] == escape.TRAPPED:
+            return EventStatus.ReachedTermination(self, TRAPPED_MESSAGE)
+        return EventStatus.Succeeded()
+
+    def _with_modes(self, context) -> tuple[np.ndarray, np.ndarray]:
+        """(the states (N, 12), the discrete state with the modes eq 21
+        selects at them: `fleet_modes`, where MFI's selector is flown)."""
+        states = np.array(self._states.Eval(context)).reshape(-1, STATE_SIZE)
+        now = context.get_discrete_state_vector().CopyToVector()
+        new = now.copy()
+        n = len(states)
+        if self._selects:
+            self._next_modes(states, self._goals, now[:n], self._params, new[:n])
+        return states, new
 
     def _write_mode(self, state, mode: int) -> None:
         """A lone vehicle's switch of eq 21 (its witness functions')."""
@@ -183,20 +266,22 @@ class FleetChain(LeafSystem):
         # The only discrete state group: get_discrete_state_vector() costs a
         # fifth of get_discrete_state(index) (11 µs a call, 13 % of a lone
         # compiled flight).
-        modes = context.get_discrete_state_vector().CopyToVector()
-        key = states.tobytes() + np.asarray(scene).tobytes() + modes.tobytes()
-        return self._last(key, self._evaluate, states, scene, modes)
+        discrete = context.get_discrete_state_vector().CopyToVector()
+        key = states.tobytes() + np.asarray(scene).tobytes() + discrete.tobytes()
+        return self._last(key, self._evaluate, states, scene, discrete)
 
-    def _evaluate(self, states, scene, modes):
+    def _evaluate(self, states, scene, discrete):
         n = len(self._goals)
         rows = np.empty((n, fleet.ROW_SIZE))
         self._chain(
             self._field,
             states.reshape(n, STATE_SIZE),
             np.array(scene).reshape(n, OBSTACLE_SIGNAL_SIZE),
-            modes,
+            discrete[:n],
             self._goals,
             *self._constants,
+            discrete[n:].reshape(n, self._memory_size),
+            *self._escape,
             rows,
         )
         return rows, rows[:, self._forces].ravel()
