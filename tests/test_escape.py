@@ -13,7 +13,7 @@ from mfi_drake.flight.methods import METHODS
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import escape
 from mfi_drake.maths.layout import obstacle_signal
-from mfi_drake.world.nonconvex import THICKNESS, box, nonconvex_world, sealed_room
+from mfi_drake.world.nonconvex import THICKNESS, box, nonconvex_world
 
 from .conftest import SCENARIOS
 
@@ -242,21 +242,6 @@ def sealed_box() -> sc.Scenario:
         duration=300.0,
         obstacles=walls,
     )
-
-
-def test_a_goal_in_a_sealed_room_on_the_ground_ends_trapped():
-    """A doorless room on the ground round the goal (`sealed_room`): the
-    rule goes round it, over it, never under it nor along the ground, and
-    ends trapped without contact, never farther from the goal than the
-    start. (Following the ground on the horizontal axes it flew 305 m away
-    in 400 s.)"""
-    world = sealed_room(0, 0)
-    world.duration = 150.0
-    flight = simulate(world, "mfi-nc")
-    assert flight.metrics["outcome"] == "trapped"
-    assert flight.metrics["min_clearance"] > 0.0
-    away = np.linalg.norm(flight.log["state"][:, :3] - world.goal, axis=1)
-    assert away.max() <= np.linalg.norm(np.subtract(world.start, world.goal)) + 1e-9
 
 
 # Training worlds (seed 0) of every class, of several sizes and

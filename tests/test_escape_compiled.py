@@ -54,6 +54,20 @@ def test_mfi_nc_flies_the_same_flight_on_both_engines(name):
     assert np.abs(fast.positions - systems.positions).max() <= 1e-6
 
 
+def test_a_goal_in_a_sealed_room_on_the_ground_ends_trapped():
+    """A doorless room on the ground round the goal (`sealed_room`): the
+    rule goes round it, over it, never under it nor along the ground, and
+    ends trapped without contact, never farther from the goal than the
+    start. (Following the ground on the horizontal axes it flew 305 m away
+    in 400 s.) The compiled flight: the systems engine's is the same
+    (above)."""
+    flight, world = flown("sealed", "compiled"), WORLDS["sealed"][0]
+    assert flight.metrics["outcome"] == "trapped"
+    assert flight.metrics["min_clearance"] > 0.0
+    away = np.linalg.norm(flight.log["state"][:, :3] - world.goal, axis=1)
+    assert away.max() <= np.linalg.norm(np.subtract(world.start, world.goal)) + 1e-9
+
+
 def test_the_compiled_rule_equals_the_python_rule_at_real_memories():
     """At every logged step of the door's and the sealed room's compiled
     flights, with the memory the rule builds along the log: the compiled
