@@ -273,9 +273,14 @@ def test_a_new_stamp_prunes_the_stale_stamps_of_its_cache_directory(
         (
             [
                 *("run", f"{SCENARIOS}/swarm_corridor.yaml", "--method", "mfi-nc"),
-                *("--set", "fleet_integration: one"),
+                *(
+                    "--set",
+                    "fleet_integration: one",
+                    "--set",
+                    "sensor: !DepthCamera {}",
+                ),
             ],
-            "method mfi-nc: one integrator flies the escape rule alone",
+            "method mfi-nc in a fleet: sensor: cameras render the other vehicles",
         ),
         (
             ["run", f"{SCENARIOS}/swarm_corridor.yaml", "--set", "engine: compiled"],

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from mfi_drake.config.parameters import NavigatorParams
-from mfi_drake.config.scenario import OtherVehicle
+from mfi_drake.config.scenario import DepthCamera, OtherVehicle, ScenarioError
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.fleet import unsupported
 from mfi_drake.flight.simulation import simulate
@@ -105,6 +105,7 @@ def test_the_compiled_rule_equals_the_python_rule_at_real_memories():
                 p,
                 v,
                 obstacle,
+                obstacle,
                 goal,
                 RADIUS,
                 navigator,
@@ -117,6 +118,7 @@ def test_the_compiled_rule_equals_the_python_rule_at_real_memories():
                 memory,
                 p,
                 v,
+                obstacle,
                 obstacle,
                 goal,
                 RADIUS,
@@ -131,12 +133,17 @@ def test_the_compiled_rule_equals_the_python_rule_at_real_memories():
     assert worst <= 1e-12
 
 
-def test_a_fleet_of_mfi_nc_is_refused_a_lone_vehicle_is_not():
+def test_a_fleet_of_mfi_nc_flies_compiled_but_not_with_cameras():
+    """One integrator flies a fleet of mfi-nc (a memory a vehicle,
+    tests/test_escape_fleet.py); with cameras the others cannot be told from
+    the scene: refused, naming the sensor."""
     world = WORLDS["door"][0]
     assert unsupported(dataclasses.replace(world, engine="compiled"), "mfi-nc") is None
     other = dataclasses.replace(
         world,
         other_vehicles=[OtherVehicle(start=[0.0, 3.0, 1.5], goal=[9.0, 3.0, 1.5])],
     )
-    reason = unsupported(other, "mfi-nc")
-    assert reason == "method mfi-nc: one integrator flies the escape rule alone"
+    assert unsupported(other, "mfi-nc") is None
+    cameras = dataclasses.replace(other, sensor=DepthCamera())
+    with pytest.raises(ScenarioError, match="mfi-nc in a fleet: sensor: cameras"):
+        unsupported(cameras, "mfi-nc")

@@ -208,7 +208,7 @@ def test_a_fleet_on_one_integrator_stops_where_two_vehicles_touch():
 @pytest.mark.parametrize(
     "change, method, named",
     [
-        ({}, "mfi-nc", "method mfi-nc"),
+        ({"sensor": "cameras"}, "mfi-nc", "mfi-nc in a fleet: sensor: cameras"),
         ({"sensor": "cameras"}, "mfi", "sensor"),
     ],
 )
@@ -225,10 +225,12 @@ def test_what_one_integrator_cannot_fly_is_refused_by_name(change, method, named
 
 def test_run_refuses_a_method_one_integrator_cannot_fly_before_flying(capsys):
     path = f"{SCENARIOS}/swarm_corridor.yaml"
-    argv = ["run", path, "--method", "mfi-nc", "--set", "fleet_integration: one"]
+    argv = ["run", path, "--method", "gf", "--set", "fleet_integration: one"]
+    argv += ["--set", "relative_velocity: {enabled: false}"]
     status = main(argv)
     err = capsys.readouterr().err
-    assert status == 2 and "fleet_integration = 'one'" in err and "method mfi-nc" in err
+    assert status == 2 and "fleet_integration = 'one'" in err
+    assert "relative_velocity.enabled = false" in err
 
 
 def test_an_unknown_fleet_integration_is_refused_by_name(capsys):

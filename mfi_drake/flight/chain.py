@@ -218,7 +218,8 @@ def add_controller(
     also reads its "obstacle_velocity" and "vehicle_readings" where it has
     them, and a "state" input of it left unconnected gets the state
     estimate (a camera places its images with it, as on board). `moving`:
-    whether obstacles move (a dynamic scene, `navigator_of`)."""
+    whether obstacles move (a dynamic scene, `navigator_of`). A navigator
+    with the input "scene" (mfi-nc in a fleet) reads the sensor's "scene"."""
     method = resolve_method(method)
     vehicle = VEHICLES[scenario.vehicle]
     navigator = builder.AddNamedSystem(
@@ -231,8 +232,9 @@ def add_controller(
         "attitude_pd", AttitudePD(vehicle, scenario.navigator)
     )
     mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
-    # `knows_velocities`; the rule of the road among vehicles.
-    for name in ("obstacle_velocity", "vehicle_readings"):
+    # `knows_velocities`; the rule of the road among vehicles; the static
+    # scene without them (mfi-nc's memory in a fleet).
+    for name in ("obstacle_velocity", "vehicle_readings", "scene"):
         if navigator.HasInputPort(name):
             builder.Connect(sensor.GetOutputPort(name), navigator.GetInputPort(name))
     estimate = connect_controller(

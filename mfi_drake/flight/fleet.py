@@ -69,7 +69,7 @@ COMPILED_FIELDS = (
 def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
-    and eq 21 selector (mfi, mfi-paper; mfi-nc's escape rule for a lone
+    and eq 21 selector (mfi, mfi-paper; mfi-nc's escape rule, a memory a
     vehicle), or APF's or GF's field and attraction; the sphere sensor, no
     moving obstacle, no faults, no point-cloud map; a fleet with the
     relative velocity."""
@@ -81,8 +81,6 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         and selector.fixed_mode is None
     )
     escape = isinstance(navigator, EscapeNavigator)
-    if escape and scenario.other_vehicles:
-        return f"method {method.name}: one integrator flies the escape rule alone"
     if not (
         (escape or isinstance(navigator, ObstacleNavigator))
         and field_of(navigator) in COMPILED_FIELDS
@@ -133,7 +131,12 @@ def method_systems(scenario: Scenario, method: Method) -> tuple:
 def check_engine(scenario: Scenario, methods: list) -> None:
     """Raises ScenarioError where `scenario` flies on the compiled engine
     (`flies_compiled`: a fleet on one integrator, or `engine: compiled`)
-    and a method of `methods` cannot be flown so (`unsupported`)."""
+    and a method of `methods` cannot be flown so (`unsupported`). A fleet's
+    navigators are built first on either engine, so that what a method
+    refuses in a fleet (mfi-nc's, `methods`) is refused before anything
+    flies."""
+    for method in methods if scenario.other_vehicles else ():
+        method_systems(scenario, resolve_method(method))
     if not flies_compiled(scenario):
         return
     asked, other = "engine = 'compiled'", "engine: systems"

@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
 from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.navigation import (
@@ -33,6 +33,7 @@ from mfi_drake.systems.navigation import (
     PotentialGoalAttraction,
     UserFieldNavigator,
 )
+from mfi_drake.world.motion import obstacles_move
 
 
 class MethodError(ValueError):
@@ -151,6 +152,38 @@ METHODS: dict[str, Method] = {
         ),
     ),
 }
+
+
+def _escape_navigator(s: Scenario, vehicle: Vehicle) -> EscapeNavigator:
+    """mfi-nc's navigator; in a fleet its memory reads the static scene's
+    readings (`OtherVehicleReadings`' "scene") and its field every reading
+    with the relative velocity where that is on. Refuses, by name, a fleet
+    where the scene cannot be told from the others (cameras render them
+    into one depth image) or is not the memory's alone (moving obstacles,
+    sensor faults on the navigator's readings only)."""
+    fleet, f = bool(s.other_vehicles), s.faults
+    if fleet:
+        why = None
+        if not isinstance(s.sensor, SphereSensor):
+            why = "sensor: cameras render the other vehicles into the scene"
+        elif obstacles_move(s):
+            why = "obstacles: moving ones are neither the scene nor a vehicle"
+        elif any((f.sensor_noise_std, f.dropout_prob, f.sensor_latency)):
+            why = "faults: the sensor's would reach the field, not the memory"
+        if why:
+            raise ScenarioError(f"method mfi-nc in a fleet: {why} (mfi flies it)")
+    return EscapeNavigator(
+        s.navigator,
+        _goal(s),
+        vehicle.collision_radius,
+        vehicle.mass,
+        s.escape,
+        None if s.ground is None else s.ground.height,
+        scene=fleet,
+        relative=s.relative_velocity if fleet and s.relative_velocity.enabled else None,
+    )
+
+
 # MFI with the escape rule and its memory in non-convex worlds
 # (docs/nonconvex.md): MFI's selector aimed at the goal, MFI's gains.
 METHODS["mfi-nc"] = replace(
@@ -159,14 +192,7 @@ METHODS["mfi-nc"] = replace(
     label="MFI (non-convex)",
     colour="darkgoldenrod",
     in_defaults=False,  # a first stage (docs/nonconvex.md), not yet tuned
-    navigator=lambda s, vehicle: EscapeNavigator(
-        s.navigator,
-        _goal(s),
-        vehicle.collision_radius,
-        vehicle.mass,
-        s.escape,
-        None if s.ground is None else s.ground.height,
-    ),
+    navigator=lambda s, vehicle: _escape_navigator(s, vehicle),
 )
 # The methods flown where none is named.
 DEFAULT_METHODS = tuple(name for name, m in METHODS.items() if m.in_defaults)

@@ -108,5 +108,9 @@ def fly_one_integrator(
         )
         for k, flown in enumerate(fleet_diagram.flown)
     ]
-    flights[0].trapped = ended_trapped(status)  # mfi-nc's escape rule: alone
+    if ended_trapped(status):  # mfi-nc's escape rule: whose memory ended it
+        chain = fleet_diagram.chain
+        trapped = chain.trapped(chain.GetMyContextFromRoot(context))
+        for flight, each in zip(flights, trapped, strict=True):
+            flight.trapped = each
     return fleet_flight(flights)

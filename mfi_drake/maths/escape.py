@@ -60,6 +60,12 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   the phase is TRAPPED for good (3DBug: a loop without a leave ends the
   search).
 
+In a fleet the memory, the subgoal, the door test and the corner brake
+read the static scene's readings only: the other vehicles are moving
+obstacles that MFI's own fields (eq 11–15, with the velocity relative to
+each: `relative_escape_terms`) turn the vehicle round, not surfaces to
+follow, corners or jambs. A lone vehicle's readings are its scene's.
+
 The memory (`MEMORY_SIZE` = 55 floats, a fixed layout below) is bounded in
 size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
@@ -79,7 +85,8 @@ from mfi_drake.maths.fields import (
     speed_control_field,
     superposed,
 )
-from mfi_drake.maths.layout import OBSTACLE_COUNT, readings
+from mfi_drake.maths.layout import OBSTACLE_COUNT, POSITION, VELOCITY, readings
+from mfi_drake.maths.motion import relative_field
 
 # Phases of the memory.
 TOWARD = 0  # MFI toward the goal
@@ -595,12 +602,11 @@ def _aim(memory, p, obstacle, goal, collision_radius, params, ground) -> tuple:
     return p + params.lookahead * u / _norm(u), True
 
 
-def escape_terms(
-    field,
+def steering(
     memory: np.ndarray,
     p: np.ndarray,
     v: np.ndarray,
-    obstacle: np.ndarray,
+    scene: np.ndarray,
     goal: np.ndarray,
     collision_radius: float,
     navigator,
@@ -608,13 +614,12 @@ def escape_terms(
     rate: float,
     ground: float | None = None,
 ) -> tuple:
-    """(A, B, subgoal ĝ): MFI's obstacle terms (`superposed` of `field`,
-    MFI's `obstacle_field`, of parameters `navigator`) aimed at ĝ, B with
-    the rule's changes to eq 19 and 16–18 (systems.escape): eq 19 at the
-    follow speed while ĝ is not the goal, at most `corner_speed` (gain
-    `rate`, `corner_rate`) in a concave corner outside PASS, F_v(setpoint)
-    − F_v(v_d) added; and the redirection F_gc(ĝ) − F_gc(g)."""
-    target, steered = _aim(memory, p, obstacle, goal, collision_radius, rule, ground)
+    """(subgoal ĝ, whether it is not the goal, eq 19's speed setpoint) from
+    the memory and the static scene's readings `scene` (a fleet's other
+    vehicles are not in them: `escape_terms`): v_d at the follow speed
+    while ĝ is not the goal, at most `corner_speed` (gain `rate`,
+    `corner_rate`) in a concave corner outside PASS."""
+    target, steered = _aim(memory, p, scene, goal, collision_radius, rule, ground)
     v_d = navigator.v_d
     if steered:
         v_d = rule.follow_speed
@@ -622,9 +627,24 @@ def escape_terms(
     # the sides of the gap flown through, not a corner ahead: eq 14–15
     # guard each, as MFI's do in any gap.
     if rule.corner_brake and memory[PHASE] != PASS:
-        corner = corner_speed(obstacle, v, collision_radius, navigator.r_b, rate)
+        corner = corner_speed(scene, v, collision_radius, navigator.r_b, rate)
         v_d = min(v_d, corner)
-    A, B = superposed(field, v, obstacle, target - p, collision_radius, navigator)
+    return target, steered, v_d
+
+
+def redirected(
+    B: np.ndarray,
+    v: np.ndarray,
+    target: np.ndarray,
+    goal: np.ndarray,
+    p: np.ndarray,
+    steered: bool,
+    v_d: float,
+    navigator,
+) -> np.ndarray:
+    """B with the rule's changes to eq 19 and 16–18 (`steering`'s): F_v at
+    the setpoint v_d instead of MFI's, F_v(v_d) − F_v(MFI's v_d) added, and
+    while steered the redirection F_gc(ĝ) − F_gc(g)."""
     if v_d < navigator.v_d:
         # Eq 19 at the lower speed setpoint instead of v_d.
         B = (
@@ -639,4 +659,106 @@ def escape_terms(
             + goal_attraction_field(v, target - p, K, smooth)
             - goal_attraction_field(v, goal - p, K, smooth)
         )
-    return A, B, target
+    return B
+
+
+def escape_terms(
+    field,
+    memory: np.ndarray,
+    p: np.ndarray,
+    v: np.ndarray,
+    scene: np.ndarray,
+    obstacle: np.ndarray,
+    goal: np.ndarray,
+    collision_radius: float,
+    navigator,
+    rule: EscapeParams,
+    rate: float,
+    ground: float | None = None,
+) -> tuple:
+    """(A, B, subgoal ĝ): MFI's obstacle terms (`superposed` of `field`,
+    MFI's `obstacle_field`, of parameters `navigator`) over every reading
+    `obstacle` aimed at ĝ, B `redirected` (systems.escape). The memory's
+    subgoal and the corner brake read the static scene `scene` only
+    (`steering`): in a fleet the other vehicles, moving, are eq 11–15's to
+    turn the vehicle round, not surfaces to follow, corners or door jambs.
+    A lone vehicle passes its readings as both."""
+    target, steered, v_d = steering(
+        memory, p, v, scene, goal, collision_radius, navigator, rule, rate, ground
+    )
+    A, B = superposed(field, v, obstacle, target - p, collision_radius, navigator)
+    return A, redirected(B, v, target, goal, p, steered, v_d, navigator), target
+
+
+def relative_escape_terms(
+    field,
+    memory: np.ndarray,
+    x: np.ndarray,
+    scene: np.ndarray,
+    obstacle: np.ndarray,
+    u: np.ndarray,
+    turns: np.ndarray,
+    goal: np.ndarray,
+    collision_radius: float,
+    navigator,
+    rule: EscapeParams,
+    rate: float,
+    ground: float | None,
+    own_pace: bool,
+    blend_speed: float,
+) -> tuple:
+    """(F_o, [A, B], ĝ) of `escape_terms` in a fleet: the field over every
+    reading `obstacle` with the velocity relative to each (u, `turns`,
+    own_pace, blend_speed: `motion.relative_field`'s), aimed at the
+    subgoal of the memory, which with the corner brake reads the static
+    scene `scene` only (`steering`); F_o and B `redirected`."""
+    p, v = x[POSITION], x[VELOCITY]
+    target, steered, v_d = steering(
+        memory, p, v, scene, goal, collision_radius, navigator, rule, rate, ground
+    )
+    F_o, terms = relative_field(
+        field,
+        x,
+        obstacle,
+        u,
+        turns,
+        target,
+        collision_radius,
+        navigator,
+        own_pace,
+        blend_speed,
+    )
+    F_o = redirected(F_o, v, target, goal, p, steered, v_d, navigator)
+    B = redirected(terms[3:6], v, target, goal, p, steered, v_d, navigator)
+    return F_o, np.concatenate((terms[0:3], B)), target
+
+
+def fleet_memories(
+    memories: np.ndarray,
+    t: float,
+    states: np.ndarray,
+    scene: np.ndarray,
+    goals: np.ndarray,
+    collision_radius: float,
+    params: EscapeParams,
+    ground: float,
+) -> np.ndarray:
+    """Every vehicle's `update_memory` at time t (states (N, 12), its
+    static scene's readings scene (N, 12), goals (N, 3)): each memory
+    (row of `memories`, (N, MEMORY_SIZE)) reads its own scene only, not
+    the other vehicles. A new array; one compiled call for a fleet."""
+    out = np.empty_like(memories)
+    for k in range(len(states)):
+        x = states[k]
+        out[k] = update_memory(
+            memories[k],
+            t,
+            x[POSITION],
+            x[VELOCITY],
+            scene[k],
+            goals[k],
+            collision_radius,
+            params,
+            ground,
+        )
+    return out

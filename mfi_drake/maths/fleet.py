@@ -9,7 +9,7 @@ functions the single-vehicle systems call, in the order they call them
 
 import numpy as np
 
-from mfi_drake.maths.escape import escape_terms
+from mfi_drake.maths.escape import escape_terms, relative_escape_terms
 from mfi_drake.maths.fields import next_mode, superposed
 from mfi_drake.maths.layout import POSITION, VELOCITY, slices
 from mfi_drake.maths.motion import relative_field, vehicle_readings
@@ -76,10 +76,11 @@ def fleet_chain(
     (N = 1) reads the static scene with its own velocity, as the
     single-vehicle navigator does (`superposed`; `flight.chain.navigator_of`
     takes the relative field only where something else moves). `rule`:
-    the escape rule's parameters (mfi-nc, a lone vehicle; None: none),
-    which aims the field at the subgoal of the memory `memories[k]` with
-    the corner gain `rate` above the ground at height `ground`
-    (`escape.escape_terms`)."""
+    the escape rule's parameters (mfi-nc; None: none), which aims the
+    field at the subgoal of vehicle k's memory `memories[k]`, read with
+    the corner gain `rate` above the ground at height `ground` from the
+    scene's readings `scene[k]` alone (`escape.escape_terms`, in a fleet
+    `escape.relative_escape_terms`: the others are the field's)."""
     centres, velocities = states[:, POSITION], states[:, VELOCITY]
     for k in range(len(states)):
         x, mode, goal = states[k], modes[k], goals[k]
@@ -95,6 +96,7 @@ def fleet_chain(
                     p,
                     v,
                     obstacle,
+                    obstacle,
                     goal,
                     radius,
                     params,
@@ -107,18 +109,37 @@ def fleet_chain(
             obstacle, u, flags = vehicle_readings(
                 p, scene[k], centres, velocities, radius, reach, k
             )
-            F_o, terms = relative_field(
-                field,
-                x,
-                obstacle,
-                u,
-                keep_right * flags,
-                goal,
-                radius,
-                params,
-                own_pace,
-                blend_speed,
-            )
+            if rule is None:
+                F_o, terms = relative_field(
+                    field,
+                    x,
+                    obstacle,
+                    u,
+                    keep_right * flags,
+                    goal,
+                    radius,
+                    params,
+                    own_pace,
+                    blend_speed,
+                )
+            else:  # mfi-nc: the memory reads the scene, the field every reading
+                F_o, terms, _ = relative_escape_terms(
+                    field,
+                    memories[k],
+                    x,
+                    scene[k],
+                    obstacle,
+                    u,
+                    keep_right * flags,
+                    goal,
+                    radius,
+                    params,
+                    rule,
+                    rate,
+                    ground,
+                    own_pace,
+                    blend_speed,
+                )
         F_gc, F_v, F_pd = attract(mode, p, v, goal, params, F_o, vehicle.mass)
         F_n = F_o + F_gc + F_v + F_pd
         thrust_torque, setpoint = attitude_command(x, F_n, vehicle, attitude, K_P, K_D)

@@ -26,6 +26,15 @@ is `escape.escape_terms`, which the compiled engine's chain calls too
 (`maths.fleet.fleet_chain`, the memory in `systems.fleet.FleetChain`). The ground's
 height (`ground`, None without one) tells the rule which reading is the
 ground: never followed, and nothing goes under it.
+
+In a fleet (`scene`) the memory, the subgoal and the corner brake read the
+input "scene", the sphere sensor's readings of the static scene without
+the other vehicles (`OtherVehicleReadings`' "scene"), and eq 11–15 every
+reading of "obstacle", the others among them: they are moving obstacles
+that MFI's field turns the vehicle round, with the velocity relative to
+each where `relative` is given (`escape.relative_escape_terms`, as the
+memoryless navigator's `systems.relative.RelativeNavigator`). Alone,
+"obstacle" is both.
 Float only: `analyze` linearises the memoryless chain (`MfiNavigator`).
 """
 
@@ -34,12 +43,15 @@ import copy
 import numpy as np
 from pydrake.systems.framework import EventStatus, LeafSystem
 
+from mfi_drake.config.dynamic import RelativeVelocity
 from mfi_drake.maths import escape, fields
 from mfi_drake.maths.layout import (
+    OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,
     STATE_SIZE,
     position_velocity,
 )
+from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.last_result import LastResult
 from mfi_drake.systems.navigation import declare_obstacle_force_ports
 
@@ -57,12 +69,21 @@ class EscapeNavigator(LeafSystem):
         input_ports:
         - state
         - obstacle
+        - scene (optional)
+        - obstacle_velocity (optional)
+        - vehicle_readings (optional)
         output_ports:
         - obstacle_force
         - obstacle_force_terms
         - escape
 
     "escape": [phase, subgoal (3)] (`escape.TOWARD`, FOLLOW or TRAPPED).
+
+    `scene` (a fleet): the input "scene", the static scene's readings,
+    which the memory reads instead of "obstacle". `relative` (a fleet's
+    `relative_velocity`, enabled): the inputs "obstacle_velocity" and
+    "vehicle_readings" (`OtherVehicleReadings`'), each reading's field with
+    the velocity relative to it and the rule of the road (`keep_right`).
     """
 
     def __init__(
@@ -73,6 +94,8 @@ class EscapeNavigator(LeafSystem):
         mass: float,
         rule: escape.EscapeParams = DEFAULT_RULE,
         ground: float | None = None,
+        scene: bool = False,
+        relative: RelativeVelocity | None = None,
     ):
         super().__init__()
         self.params = copy.deepcopy(params)
@@ -94,6 +117,20 @@ class EscapeNavigator(LeafSystem):
             self._obstacle.ticket(),
             self.discrete_state_ticket(self._memory),
         }
+        # A fleet's: the static scene (the memory's), the others' velocities.
+        self._scene = self._obstacle
+        if scene:
+            self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE)
+            tickets.add(self._scene.ticket())
+        self._relative = None
+        if relative is not None:
+            self._relative = (
+                relative.keep_right,
+                relative.own_pace,
+                self.DeclareVectorInputPort("obstacle_velocity", 3 * OBSTACLE_COUNT),
+                self.DeclareVectorInputPort("vehicle_readings", OBSTACLE_COUNT),
+            )
+            tickets |= {port.ticket() for port in self._relative[2:]}
         self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
         self.DeclarePerStepUnrestrictedUpdateEvent(self._update)
         declare_obstacle_force_ports(self, self._terms, tickets)
@@ -122,7 +159,7 @@ class EscapeNavigator(LeafSystem):
             context.get_time(),
             p,
             v,
-            self._obstacle.Eval(context),
+            self._scene.Eval(context),
             self.goal,
             self.collision_radius,
             self.rule,
@@ -140,17 +177,47 @@ class EscapeNavigator(LeafSystem):
         outputs."""
         x = self._state.Eval(context)
         obstacle = self._obstacle.Eval(context)
+        scene = self._scene.Eval(context)
         memory = self.memory(context)
-        key = x.tobytes() + obstacle.tobytes() + memory.tobytes()
-        return self._last(key, self.terms_of, x, obstacle, memory)
+        moving = ()  # the others' velocities and rule of the road (relative)
+        if self._relative is not None:
+            keep_right, _, velocity, vehicles = self._relative
+            moving = (velocity.Eval(context), keep_right * vehicles.Eval(context))
+        key = b"".join(a.tobytes() for a in (x, obstacle, scene, memory, *moving))
+        return self._last(key, self.terms_of, x, obstacle, memory, scene, *moving)
 
-    def terms_of(self, x, obstacle, memory) -> tuple:
+    def terms_of(self, x, obstacle, memory, scene=None, u=None, turns=None) -> tuple:
+        """(F, F_a + redirection, F_o, subgoal) at the state x, readings
+        `obstacle` and `memory`; `scene` (a fleet's static scene, None:
+        `obstacle`) and, with the relative velocity, each reading's u and
+        turn (`escape.relative_escape_terms`)."""
+        scene = obstacle if scene is None else scene
+        if u is not None:
+            F_o, terms, target = escape.relative_escape_terms(
+                fields.obstacle_field,
+                memory,
+                x,
+                scene,
+                obstacle,
+                u,
+                turns,
+                self.goal,
+                self.collision_radius,
+                self.params,
+                self.rule,
+                self._rate,
+                self.ground,
+                self._relative[1],
+                PACE_BLEND_SPEED,
+            )
+            return terms[:3], terms[3:], F_o, target
         p, v = position_velocity(x)
         A, B, target = escape.escape_terms(
             fields.obstacle_field,
             memory,
             p,
             v,
+            scene,
             obstacle,
             self.goal,
             self.collision_radius,

@@ -83,6 +83,7 @@ class OtherVehicleReadings(LeafSystem):
         - obstacle
         - obstacle_velocity
         - vehicle_readings
+        - scene
 
     "obstacle" (input): the sphere sensor's readings of the scene without
     the vehicles; "other_vehicles": the last `message`; "obstacle" (output):
@@ -92,7 +93,9 @@ class OtherVehicleReadings(LeafSystem):
     "obstacle_velocity": per output reading, its vehicle's velocity along
     the reading's normal (`maths.motion.along_normal`), zero for the scene's;
     "vehicle_readings": per output reading, 1 where it is another vehicle
-    (the relative navigator's rule of the road), else 0.
+    (the relative navigator's rule of the road), else 0; "scene": the
+    input "obstacle" as it is, the static scene alone (what mfi-nc's memory
+    reads in a fleet, `systems.escape`).
     """
 
     def __init__(self, count: int, radius: float, sensor_radius: float):
@@ -119,6 +122,12 @@ class OtherVehicleReadings(LeafSystem):
                 lambda context, out, k=k: out.SetFromVector(self._merged(context)[k]),
                 prerequisites_of_calc=tickets,
             )
+        self.DeclareVectorOutputPort(
+            "scene",
+            OBSTACLE_SIGNAL_SIZE,
+            lambda context, out: out.SetFromVector(self._obstacle.Eval(context)),
+            prerequisites_of_calc={self._obstacle.ticket()},
+        )
 
     def _merged(self, context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(the readings, their velocities, the vehicles among them),

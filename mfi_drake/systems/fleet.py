@@ -8,10 +8,12 @@
 (`maths.compiled`), for every vehicle in one call: the per-call cost of a
 Python system is paid once for the fleet, not once per vehicle and system.
 Eq 21's modes are its discrete state, one a vehicle, updated at the start
-of every integrator step (`fleet_modes`); for mfi-nc (a lone vehicle) the
-escape rule's memory follows them in the same vector, updated then too
-(`escape.update_memory`, as `EscapeNavigator` does), and TRAPPED ends the
-flight as it does there (`TRAPPED_MESSAGE`). A lone vehicle (the compiled
+of every integrator step (`fleet_modes`); for mfi-nc the escape rule's
+memory of each vehicle follows them in the same vector, updated then too
+from that vehicle's readings of the static scene alone, in one compiled
+call (`escape.fleet_memories`, as `EscapeNavigator` does one vehicle's),
+and TRAPPED of any vehicle ends the flight as it does there
+(`TRAPPED_MESSAGE`; `trapped` says whose). A lone vehicle (the compiled
 engine, `engine: compiled`) also has the single-vehicle selector's witness
 functions (`navigation.mode_witnesses`), so that the integrator locates
 each switch as the card's diagram does; a fleet has none (a witness a
@@ -33,7 +35,6 @@ from mfi_drake.maths.layout import (
     POSITION,
     ROTORS,
     STATE_SIZE,
-    VELOCITY,
 )
 from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
 from mfi_drake.systems.escape import TRAPPED_MESSAGE
@@ -67,8 +68,9 @@ class FleetChain(LeafSystem):
     `fields.obstacle_field` and eq 21's `fields.goal_terms`, or a
     baseline's field and `baselines.attraction_terms`) and their
     parameters; `attitude`: the attitude PD's (the scenario's `navigator`).
-    `rule`: the escape rule's parameters (mfi-nc; a lone vehicle only),
-    `ground`: the ground's height it reads (None: none).
+    `rule`: the escape rule's parameters (mfi-nc: a memory a vehicle, which
+    reads "scene" alone), `ground`: the ground's height it reads (None:
+    none).
     """
 
     def __init__(
@@ -90,8 +92,6 @@ class FleetChain(LeafSystem):
         super().__init__()
         self._goals = np.array(goals, float)
         n = len(self._goals)
-        if rule is not None and n != 1:
-            raise ValueError(f"rule: the escape rule flies a lone vehicle, not {n}")
         K_P, K_D = attitude_gains(vehicle, attitude)
         # Copies of the parameters, in the compiled functions' form.
         self._constants = (
@@ -139,14 +139,13 @@ class FleetChain(LeafSystem):
             np.zeros((n, fleet.ROW_SIZE)),
         )
         if rule is not None:
-            self._update_memory = compiled.specialised(
-                compiled.compiled(escape).update_memory,
-                np.zeros(escape.MEMORY_SIZE),
+            self._update_memories = compiled.specialised(
+                compiled.compiled(escape).fleet_memories,
+                np.zeros((n, escape.MEMORY_SIZE)),
                 0.0,
-                at_rest[0, POSITION],
-                at_rest[0, VELOCITY],
-                self._no_scene[0],
-                self._goals[0],
+                at_rest,
+                self._no_scene,
+                self._goals,
                 vehicle.collision_radius,
                 self._rule,
                 self._ground,
@@ -169,7 +168,7 @@ class FleetChain(LeafSystem):
         if scene:
             self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE * n)
             tickets.add(self._scene.ticket())
-        # The one discrete state group: the modes, then the memory (mfi-nc).
+        # The one discrete state group: the modes, then the memories (mfi-nc).
         self._modes = self.DeclareDiscreteState(
             np.concatenate((np.full(n, float(MODE_PD)), np.zeros(self._memory_size)))
         )
@@ -202,39 +201,62 @@ class FleetChain(LeafSystem):
         )
 
     def _initialize(self, context, state):
-        """Eq 21's modes from scratch and the escape rule's first memory
+        """Eq 21's modes from scratch and the escape rule's first memories
         (`escape.initial_memory`)."""
         states, new = self._with_modes(context)
         if self._rule is not None:
-            p = states[0, POSITION]
-            new[len(states) :] = escape.initial_memory(p, self._goals[0])
+            n = len(states)
+            new[n:] = np.concatenate(
+                [
+                    escape.initial_memory(x[POSITION], goal)
+                    for x, goal in zip(states, self._goals, strict=True)
+                ]
+            )
         state.get_mutable_discrete_state(self._modes).SetFromVector(new)
 
     def _update(self, context, state):
-        """Eq 21's modes and the escape rule's memory (`update_memory`, as
-        `EscapeNavigator`'s update) at the start of a step; TRAPPED ends
-        the flight as there."""
+        """Eq 21's modes and the escape rule's memories (`fleet_memories`, as
+        `EscapeNavigator`'s update) at the start of a step; TRAPPED of any
+        vehicle ends the flight as there."""
         states, new = self._with_modes(context)
         n = len(states)
         if self._rule is not None:
-            scene = self._no_scene[0]
+            scene = self._no_scene
             if self._scene is not None:
-                scene = np.array(self._scene.Eval(context))
-            new[n:] = self._update_memory(
-                new[n:],
+                scene = np.array(self._scene.Eval(context)).reshape(n, -1)
+            new[n:] = self._update_memories(
+                new[n:].reshape(n, escape.MEMORY_SIZE),
                 context.get_time(),
-                states[0, POSITION],
-                states[0, VELOCITY],
+                states,
                 scene,
-                self._goals[0],
+                self._goals,
                 self._radius,
                 self._rule,
                 self._ground,
-            )
+            ).ravel()
         state.get_mutable_discrete_state(self._modes).SetFromVector(new)
-        if self._rule is not None and new[n + escape.PHASE] == escape.TRAPPED:
+        if self._rule is not None and any(self._trapped_in(new)):
             return EventStatus.ReachedTermination(self, TRAPPED_MESSAGE)
         return EventStatus.Succeeded()
+
+    def memories(self, context) -> np.ndarray:
+        """The escape rule's memories in `context` (N, MEMORY_SIZE; N × 0
+        without the rule)."""
+        discrete = context.get_discrete_state_vector().CopyToVector()
+        n = len(self._goals)
+        return discrete[n:].reshape(n, self._memory_size)
+
+    def trapped(self, context) -> list[bool]:
+        """Whether each vehicle's memory is TRAPPED in `context` (all False
+        without the rule)."""
+        return self._trapped_in(context.get_discrete_state_vector().CopyToVector())
+
+    def _trapped_in(self, discrete: np.ndarray) -> list[bool]:
+        n = len(self._goals)
+        if self._rule is None:
+            return [False] * n
+        phases = discrete[n:].reshape(n, escape.MEMORY_SIZE)[:, escape.PHASE]
+        return [bool(phase == escape.TRAPPED) for phase in phases]
 
     def _with_modes(self, context) -> tuple[np.ndarray, np.ndarray]:
         """(the states (N, 12), the discrete state with the modes eq 21
