@@ -25,7 +25,7 @@ from mfi_drake.flight.simulator import simulator_at_start
 from mfi_drake.maths import escape, fields, fleet
 from mfi_drake.maths.layout import POSITION, STATE_SIZE, VELOCITY
 from mfi_drake.systems.exchange import message
-from mfi_drake.world.nonconvex import nonconvex_world
+from mfi_drake.world.nonconvex import nonconvex_world, sealed_room
 
 from .test_one_integrator import VEHICLE, chain_arguments, crowded_fleet
 
@@ -199,3 +199,25 @@ def test_each_memory_is_the_rule_replayed_on_its_scene_readings_alone():
             phases.add(int(want[escape.PHASE]))
     assert {escape.FOLLOW, escape.PASS} <= phases
     assert differs > 0
+
+
+def test_a_trapped_vehicle_ends_a_compiled_fleet_and_is_named():
+    """A goal in a doorless room (`sealed_room`) with a second vehicle
+    flying elsewhere, on one integrator: the rule of the first runs out of
+    options, which ends the fleet's flight (as exchange ends it): outcome
+    "trapped", the first vehicle's entry "trapped", the second's not, no
+    contact. The lone vehicle ends trapped at 117 s
+    (tests/test_escape_compiled.py)."""
+    world = sealed_room(0, 0)
+    other = OtherVehicle(start=[0.0, -3.0, world.start[2]], goal=[0.0, -6.0, 2.0])
+    fleet_world = dataclasses.replace(
+        world, other_vehicles=[other], fleet_integration="one", duration=150.0
+    )
+    flight = simulate(fleet_world, "mfi-nc")
+    metrics = flight.metrics
+    assert metrics["outcome"] == "trapped"
+    assert [v.get("trapped", False) for v in metrics["vehicles"]] == [True, False]
+    assert metrics["vehicles"][1]["reached"]
+    assert metrics["min_separation"] > 0.0
+    assert all(v["min_clearance"] > 0.0 for v in metrics["vehicles"])
+    assert flight.times[-1] < fleet_world.duration

@@ -170,7 +170,9 @@ class FleetChain(LeafSystem):
             tickets.add(self._scene.ticket())
         # The one discrete state group: the modes, then the memories (mfi-nc).
         self._modes = self.DeclareDiscreteState(
-            np.concatenate((np.full(n, float(MODE_PD)), np.zeros(n * self._memory_size)))
+            np.concatenate(
+                (np.full(n, float(MODE_PD)), np.zeros(n * self._memory_size))
+            )
         )
         tickets.add(self.discrete_state_ticket(self._modes))
         if self._selects or rule is not None:
