@@ -26,7 +26,9 @@ from mfi_drake.maths import escape, fields, fleet
 from mfi_drake.maths.layout import POSITION, STATE_SIZE, VELOCITY
 from mfi_drake.systems.exchange import message
 from mfi_drake.world.nonconvex import nonconvex_world, sealed_room
+from mfi_drake.world.validation import load_scenario
 
+from .conftest import SCENARIOS
 from .test_one_integrator import VEHICLE, chain_arguments, crowded_fleet
 
 RULE = escape.EscapeParams()
@@ -221,3 +223,25 @@ def test_a_trapped_vehicle_ends_a_compiled_fleet_and_is_named():
     assert metrics["min_separation"] > 0.0
     assert all(v["min_clearance"] > 0.0 for v in metrics["vehicles"])
     assert flight.times[-1] < fleet_world.duration
+
+
+@pytest.mark.parametrize(
+    "name, integration",
+    [
+        ("swarm_circle", "one"),
+        ("swarm_corridor", "one"),
+        ("swarm_corridor", "separate"),
+    ],
+)
+def test_the_swarms_fly_as_mfi_flies_them(name, integration):
+    """In the shipped swarms nothing traps and no corner of the scene (the
+    ground alone) brakes: the rule leaves MFI's relative field as it is,
+    so mfi-nc flies mfi's flight to the last bit on both engines."""
+    scene = dataclasses.replace(
+        load_scenario(f"{SCENARIOS}/{name}.yaml"), fleet_integration=integration
+    )
+    want, got = simulate(scene, "mfi"), simulate(scene, "mfi-nc")
+    assert got.metrics["outcome"] == want.metrics["outcome"] == "success"
+    for a, b in zip([want, *want.others], [got, *got.others], strict=True):
+        np.testing.assert_array_equal(b.times, a.times)
+        np.testing.assert_array_equal(b.log["state"], a.log["state"])
