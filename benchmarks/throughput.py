@@ -24,6 +24,9 @@ Prints, all measured in this run (the machine's load average with each):
    (imports, loading the compiled chain from numba's cache, the flight, the
    figure): its wall time from start to exit beside the flight's own
    real-time factor, which leaves all that out.
+   The compiled flight's SceneGraph distance queries a step and their
+   cost alone (`TimedQueries`), against the cost a step may have for the
+   compiled engine to reach COMPILED_BAR of the C++ diagram.
    Then the floor: the MFI diagram flown with stale results
    (`StaleResults`: no arithmetic in its Python systems) costs per step
    what its structure costs, against the cost per step that a ratio of
@@ -84,6 +87,7 @@ from mfi_drake.studies.sweep import (
     task_scenario,
 )
 from mfi_drake.studies.variants import with_overrides
+from mfi_drake.systems import sensors
 from mfi_drake.systems.last_result import LastResult
 from mfi_drake.world import generator
 from mfi_drake.world.validation import load_scenario
@@ -93,6 +97,7 @@ PLANAR_WALL = os.path.join(ROOT, "scenarios", "planar_wall.yaml")
 COMPARED = ("mfi", "mfi-paper", "apf", "gf")
 REALTIME_BAR = 50.0  # the issues' "no flight below 50x real time"
 BAR_RATIO = 0.05  # issue 15's planar wall against the C++ diagram
+COMPILED_BAR = 0.25  # issue 40's: the compiled engine against the C++ diagram
 
 
 @dataclasses.dataclass
@@ -200,6 +205,53 @@ class StaleResults:
         LastResult.__call__ = self._saved
 
 
+class TimedQueries:
+    """Within the block, every sphere-sensor reading (`nearest_obstacles`,
+    as `systems.sensors` calls it) also times SceneGraph's distance query
+    it makes once more, alone, and counts it: what the card's sensor costs
+    a step whatever the rest of the chain costs."""
+
+    def __init__(self):
+        self.count, self.seconds = 0, 0.0
+        self._saved = None
+
+    def __enter__(self):
+        self._saved = sensors.nearest_obstacles
+
+        def timed(query, p, threshold, *args):
+            start = time.perf_counter()
+            query.ComputeSignedDistanceToPoint(p, threshold)
+            self.seconds += time.perf_counter() - start
+            self.count += 1
+            return self._saved(query, p, threshold, *args)
+
+        sensors.nearest_obstacles = timed
+        return self
+
+    def __exit__(self, *exc):
+        sensors.nearest_obstacles = self._saved
+
+
+def query_floor(scenario: Scenario, lqr: "Run", say) -> dict:
+    """The compiled flight's SceneGraph queries a step and their cost alone,
+    against what a step may cost for COMPILED_BAR of the C++ diagram."""
+    with TimedQueries() as queries:
+        flight = simulate(dataclasses.replace(scenario, engine="compiled"))
+    steps = flight.integrator_steps
+    per_step = queries.count / steps
+    each = queries.seconds / queries.count
+    allowed = lqr.cpu_time / COMPILED_BAR / steps
+    say(
+        f"   the compiled flight's sensor: {per_step:.2f} SceneGraph distance "
+        f"queries per step ({flight.derivative_evaluations / steps:.2f} "
+        f"derivative evaluations), {1e6 * each:.1f} us each alone = "
+        f"{1e6 * per_step * each:.1f} us per step; a ratio of {COMPILED_BAR:g} "
+        f"allows {1e6 * allowed:.1f} us per step at its {steps} steps, query, "
+        "plant, integrator, chain and logger together"
+    )
+    return {"queries_per_step": per_step, "query": each, "allowed": allowed}
+
+
 def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
     """Part 1: the MFI flight and the C++ reference, flown in turn; then the
     same diagram with stale results (`StaleResults`): the cost of a step
@@ -248,6 +300,7 @@ def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
         "mfi": mfi,
         "lqr": lqr,
         "compiled": fast,
+        "compiled_floor": query_floor(scenario, lqr, say),
         "compiled_ratio": compiled_ratio,
         "commands": commands,
         "ratio": ratio,

@@ -49,6 +49,11 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
         fast.realtime_factor / lqr.realtime_factor
     )
     assert f"compiled / C++: {result['compiled_ratio']:.4f}" in out
+    # The sensor's queries: at least one a step (the vehicle moves), at most
+    # one a derivative evaluation and two more (the step's start, the log).
+    floor, evaluations = result["compiled_floor"], fast.derivative_evaluations
+    assert 1.0 <= floor["queries_per_step"] <= evaluations / fast.steps + 2.0
+    assert floor["query"] > 0.0 and "distance queries per step" in out
     for engine in ("systems", "compiled"):
         wall, factor = result["commands"][engine]
         assert wall > 2.0 / factor  # the command holds the flight and more

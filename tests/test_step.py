@@ -17,7 +17,7 @@ from mfi_drake import NavigationStep, load_scenario, simulate
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.methods import MethodError
-from mfi_drake.maths import fields
+from mfi_drake.maths import escape, fields
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     POSITION,
@@ -25,6 +25,7 @@ from mfi_drake.maths.layout import (
     point_readings,
     seen_points,
 )
+from mfi_drake.world.nonconvex import nonconvex_world
 from mfi_drake.world.obstacles import nearest_obstacles, sensed
 
 from .conftest import SCENARIOS
@@ -91,6 +92,41 @@ def test_the_step_equals_the_logged_diagram_at_the_logged_inputs(scene, method):
     if method in ("mfi", "mfi-paper"):  # cruise and back to PD at the goal
         assert len(mismatched) == 2
     assert len(mismatched) <= 2 and len(times) > 500
+
+
+def test_the_step_carries_the_escape_memory_as_the_diagram_does():
+    """mfi-nc out of a cup (TOWARD, FOLLOW, PASS). Oracle: the diagram's
+    log. Its row k holds the outputs at the state x_k with the memory as it
+    was before the update at t_k (the logger publishes at the end of the
+    step before): where the update changes the phase, the logged force is
+    the navigator's at the previous call's memory, and the step's, the one
+    flown from t_k on, follows in row k + 1; elsewhere they are equal."""
+    world = nonconvex_world("cup", 0, 0, duration=40.0)
+    flight = simulate(dataclasses.replace(world, engine="compiled"), "mfi-nc")
+    assert flight.metrics["outcome"] == "success"
+    log, times = flight.log, flight.times
+    step = NavigationStep.from_scenario(world, "mfi-nc")
+    assert step.memory is None  # before the first call
+    navigator = step._chain[0]
+    changed, mismatched, phases, before = [], [], set(), None
+    for k, x in enumerate(log["state"]):
+        points = x[POSITION] + seen_points(log["obstacle"][k])
+        out = step.step(x, points, times[k])
+        phases.add(int(out.escape[0]))
+        logged = log["obstacle_force_terms"][k]
+        if np.abs(out.obstacle_force - logged[:3] - logged[3:]).max() > 1e-12:
+            mismatched.append(k)
+            at_before = navigator.terms_of(x, out.obstacle, before)[2]
+            np.testing.assert_allclose(at_before, logged[:3] + logged[3:], 0, 1e-12)
+        if before is not None and step.memory[escape.PHASE] != before[escape.PHASE]:
+            changed.append(k)
+        before = step.memory
+    assert phases == {escape.TOWARD, escape.FOLLOW, escape.PASS}
+    assert mismatched == changed and len(changed) >= 3
+    with pytest.raises(ValueError, match=r"NavigationStep: t = 1\.0: must not go back"):
+        step.step(log["state"][-1], np.zeros((0, 3)), 1.0)
+    step.reset()
+    assert step.memory is None
 
 
 def test_points_are_read_as_the_sphere_sensor_reads_scene_graph():

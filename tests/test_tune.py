@@ -168,6 +168,38 @@ def test_the_held_out_protocol_runs_from_python(toy_dir, threads_client):
     assert none is None and again["toy:cruise"].values == best["toy:cruise"].values
 
 
+def test_the_held_out_phase_flies_generated_worlds(toy_dir, threads_client):
+    """`held_out_world`: the winners flown on the sweep's generated worlds of
+    the held-out seed (here one cup), recorded by class, with no density."""
+    config = TuneConfig(
+        methods=["toy:cruise"],
+        candidates=3,
+        n=1,
+        densities=[0.0],
+        held_out_seed=101,
+        held_out_world="cup",
+        out=str(toy_dir / "tune_world"),
+    )
+    _, run = tune_held_out(config, threads_client, 1, progress_stream=sys.stdout)
+    records = read_results(str(toy_dir / "tune_world" / "held_out" / "results.jsonl"))
+    assert [(r["world"], r["density"], r["seed"], r["index"]) for r in records] == [
+        ("cup", None, 101, 0)
+    ]
+    assert run.summary["config"]["densities"] == []
+    assert list(run.summary["methods"]["toy:cruise"]["by_world"]) == ["cup"]
+
+
+def test_a_held_out_density_with_a_generated_world_is_refused(tmp_path, capsys):
+    args = ["tune", "--held-out-seed", "5", "--held-out-world", "cup"]
+    args += ["--held-out-density", "0.1", "--out", str(tmp_path)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--held-out-density = 0.1" in err
+    assert "--held-out-world cup" in err and not any(tmp_path.iterdir())
+    with pytest.raises(TuneError, match="--held-out-world = moon"):
+        TuneConfig(methods=["mfi"], held_out_world="moon").check()
+
+
 def test_overlapping_held_out_seed_is_refused(tmp_path, capsys):
     args = ["tune", "--seed", "7", "--held-out-seed", "7", "--out", str(tmp_path)]
     assert main(args) == 2

@@ -57,6 +57,23 @@ def check_world(args) -> None:
     args.density = []
 
 
+def check_held_out_world(args) -> None:
+    """--held-out-world: generated worlds have no density, so
+    --held-out-density is refused with them; random fields get the default
+    densities where it is absent."""
+    from mfi_drake.studies.records import RANDOM
+    from mfi_drake.studies.tune import HELD_OUT_DENSITIES
+
+    if args.held_out_world == RANDOM:
+        args.held_out_density = args.held_out_density or list(HELD_OUT_DENSITIES)
+    elif args.held_out_density:
+        given = " ".join(f"{d:g}" for d in args.held_out_density)
+        raise UsageError(
+            f"--held-out-density = {given}: shapes the random fields, not "
+            f"--held-out-world {args.held_out_world}"
+        )
+
+
 def sweep_config(args, **more):
     """(config, tasks) of the random fields the arguments name (seed,
     sensor, vehicles, motion, goal clearance; checked here): a fleet's
@@ -249,6 +266,7 @@ def cmd_tune(args) -> int:
     check_sweep_numbers(args)
     check_field_numbers(args)
     check_motion_numbers(args)
+    check_held_out_world(args)
     check_held_out_numbers(args)
     config = TuneConfig(
         methods=methods,
@@ -262,6 +280,7 @@ def cmd_tune(args) -> int:
         obstacle_speed=args.obstacle_speed,
         jitter=args.jitter,
         held_out_seed=args.held_out_seed,
+        held_out_world=args.held_out_world,
         out=args.out,
     )
     try:
@@ -416,6 +435,7 @@ def add_scene(sub) -> None:
 
 def add_tune(sub) -> None:
     """The `tune` command's parser, added to the subparsers `sub`."""
+    from mfi_drake.studies.sweep import NONCONVEX, WORLDS
     from mfi_drake.studies.tune import (
         HELD_OUT_DENSITIES,
         HELD_OUT_N,
@@ -499,8 +519,17 @@ def add_tune(sub) -> None:
         metavar="D",
         type=float,
         nargs="+",
-        default=list(HELD_OUT_DENSITIES),
-        help="held-out densities, obstacles per m³, each ≥ 0",
+        help="held-out densities of the random fields, obstacles per m³, each "
+        f"≥ 0 (default: {' '.join(f'{d:g}' for d in HELD_OUT_DENSITIES)})",
+    )
+    tune.add_argument(
+        "--held-out-world",
+        choices=WORLDS,
+        default=WORLDS[0],
+        metavar="KIND",
+        help=f"what the winners are flown on, one of {', '.join(WORLDS)}: "
+        "random fields, or --held-out-n generated non-convex worlds of a class "
+        f"or of every class ({NONCONVEX}), as sweep --world",
     )
     add_workers(tune)
     tune.add_argument(

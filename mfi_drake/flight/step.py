@@ -20,6 +20,13 @@ zero; between two calls the object switches it where the guard it watches
 has been crossed since the last call (`GoalAttractionSelector.next_mode`,
 the guard functions the witness functions evaluate). A guard crossed and
 crossed back between two calls goes unseen, as in any sampled loop.
+
+The escape rule's memory (mfi-nc, `systems.escape.EscapeNavigator`) is
+the object's state too, kept in the navigator's context: set from the
+first call's state as the diagram's initialization sets it, then updated
+at every call, before the outputs, as the diagram's per-step event updates
+it at the start of each integrator step (`EscapeNavigator.next_memory`).
+It measures progress over the calls' times `t`.
 """
 
 from collections.abc import Callable
@@ -33,6 +40,7 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths.layout import STATE_SIZE, point_readings, position_velocity
 from mfi_drake.systems.control import AttitudePD, RotorMixer
+from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.navigation import GoalAttractionSelector
 
 WHERE = "NavigationStep"  # what the errors name
@@ -48,6 +56,10 @@ class StepOutput:
     propeller_force: np.ndarray  # u (4), QuadrotorPlant's input: rotor commands
     mode: int  # eq 21's mode: fields.MODE_PD (0) or fields.MODE_CRUISE (1)
     obstacle: np.ndarray  # the readings used (12), the sensor's "obstacle" signal
+    # The escape rule's [phase, subgoal (3)] (mfi-nc; None without the rule):
+    # phase maths.escape.TOWARD, FOLLOW, TRAPPED (the goal cannot be
+    # reached: the diagram ends its flight there) or PASS.
+    escape: np.ndarray | None = None
 
     @property
     def thrust(self) -> float:
@@ -138,12 +150,22 @@ class NavigationStep:
             isinstance(self._selector, GoalAttractionSelector)
             and self._selector.fixed_mode is None
         )
+        self._remembers = isinstance(self._chain[0], EscapeNavigator)
         self.reset()
 
     def reset(self) -> None:
-        """Forgets eq 21's mode: the next call selects it from scratch, as
-        the diagram does at initialization."""
+        """Forgets eq 21's mode and the escape rule's memory: the next call
+        sets them from scratch, as the diagram does at initialization."""
         self._mode: int | None = None
+        self._time: float | None = None  # of the last call, with the memory
+
+    @property
+    def memory(self) -> np.ndarray | None:
+        """The escape rule's memory after the last call (`maths.escape`'s
+        layout; None for a method without the rule, or before a call)."""
+        if not self._remembers or self._time is None:
+            return None
+        return self._contexts[0].get_discrete_state_vector().CopyToVector()
 
     @property
     def mode(self) -> int | None:
@@ -156,8 +178,12 @@ class NavigationStep:
         (k × 3, world frame [m], any k ≥ 0): the OBSTACLE_COUNT nearest
         within the sensor radius are read, as the sphere sensor reads them
         (`layout.point_readings`). First switches eq 21's mode if a guard
-        has been crossed since the last call. `t` [s]: the time a user's
-        field's errors name (default 0)."""
+        has been crossed since the last call, and updates the escape rule's
+        memory (mfi-nc). `t` [s]: the time a user's field's errors name and
+        the escape rule's memory measures progress over (default 0: the
+        rule then never sees time pass, and never declares a trap); it may
+        not go back between two calls of a method with the rule (ValueError;
+        `reset` first)."""
         x = _finite(state, (STATE_SIZE,), "state", "QuadrotorPlant's 12-vector")
         array = _finite(points, None, "points", "k × 3 obstacle points [m]")
         if array.size == 0:
@@ -170,6 +196,8 @@ class NavigationStep:
         navigator.SetTime(0.0 if t is None else float(t))
         if self._switches:
             self._switch_mode(x)
+        if self._remembers:
+            self._remember(x, obstacle, navigator.get_time())
         F_o = self._evaluate(0, {"state": x, "obstacle": obstacle}, "obstacle_force")
         F_n = self._evaluate(1, {"state": x, "obstacle_force": F_o}, "navigation_force")
         setpoint = self._evaluate(
@@ -178,7 +206,24 @@ class NavigationStep:
         thrust_torque = self._chain[2].GetOutputPort("thrust_torque").Eval(attitude)
         u = self._evaluate(3, {"thrust_torque": thrust_torque}, "propeller_force")
         self._mode = round(self._selector.GetOutputPort("mode").Eval(selector)[0])
-        return StepOutput(F_n, F_o, setpoint, u, self._mode, obstacle)
+        escape = None
+        if self._remembers:
+            escape = self._chain[0].GetOutputPort("escape").Eval(navigator).copy()
+        return StepOutput(F_n, F_o, setpoint, u, self._mode, obstacle, escape)
+
+    def _remember(self, x: np.ndarray, obstacle: np.ndarray, t: float) -> None:
+        """Writes the escape rule's memory at (t, x, obstacle) into the
+        navigator's context: set from x at the first call, then updated."""
+        navigator, context = self._chain[0], self._contexts[0]
+        if self._time is None:
+            memory = navigator.initial_memory(x)
+        elif t < self._time:
+            _refuse("t", t, f"must not go back (the last call's was {self._time})")
+        else:
+            memory = navigator.memory(context)
+        memory = navigator.next_memory(memory, t, x, obstacle)
+        context.get_mutable_discrete_state_vector().SetFromVector(memory)
+        self._time = t
 
     def _switch_mode(self, x: np.ndarray) -> None:
         """Writes eq 21's mode at x into the selector's context: from

@@ -29,7 +29,9 @@ The protocol, the same for every method and fixed before any result is seen:
    which run, compare and sweep accept with `--override`; each method's
    gains live in its own scenario field, so one file serves every method.
 5. Held-out evaluation: the winners flown on fields of a seed that is not a
-   training seed (refused otherwise), through the sweep (`held_out_sweep`).
+   training seed (refused otherwise), through the sweep (`held_out_sweep`):
+   random fields, or with `held_out_world` the sweep's generated non-convex
+   worlds of that seed (a class of `world.nonconvex`, or every class).
 
 From Python, `tune_held_out` runs all five steps; `mfi-drake tune` runs
 `tune`, then `held_out_sweep` where a held-out seed is given.
@@ -60,9 +62,10 @@ from mfi_drake.flight.fleet import on_compiled
 from mfi_drake.flight.methods import Gain, Method, resolve_method
 from mfi_drake.studies.cluster import ClusterError, Task, run_tasks
 from mfi_drake.studies.compare import PAPER_SCENARIOS
-from mfi_drake.studies.records import ResultsFile, read_results
+from mfi_drake.studies.records import RANDOM, ResultsFile, read_results
 from mfi_drake.studies.sweep import (
     SINGLE,
+    WORLDS,
     SweepConfig,
     SweepRun,
     default_engine,
@@ -102,6 +105,9 @@ class TuneConfig:
     obstacle_speed: float = 0.0  # [m/s] of the moving obstacles
     jitter: int = 1  # copies of each random field, started 1 mm apart
     held_out_seed: int | None = None  # fields never used for training
+    # What the held-out phase flies: random fields, or generated worlds
+    # (a class of `world.nonconvex`, or NONCONVEX: every class), as `sweep --world`.
+    held_out_world: str = RANDOM
     out: str = "out/tune"
 
     def check(self) -> None:
@@ -112,6 +118,11 @@ class TuneConfig:
             )
         if self.walls < 0:
             raise TuneError(f"--walls = {self.walls}: must be ≥ 0")
+        if self.held_out_world not in WORLDS:
+            raise TuneError(
+                f"--held-out-world = {self.held_out_world}: must be one of "
+                f"{', '.join(WORLDS)}"
+            )
         if self.candidates < MIN_CANDIDATES:
             raise TuneError(
                 f"--candidates = {self.candidates}: must be ≥ {MIN_CANDIDATES}"
@@ -323,10 +334,11 @@ def held_out_sweep(
 ) -> SweepRun:
     """Step 5 of the protocol: the winners of DIR/tuned.yaml (written by
     `tune`) flown by every method of `config` on `n` random fields per
-    density of `densities` at `config.held_out_seed`, through the sweep
-    (`run_sweep`, its files in DIR/held_out/, its records keyed by the
-    override's variant). Raises TuneError where the held-out seed is None
-    or a training seed."""
+    density of `densities` at `config.held_out_seed` (or, with
+    `config.held_out_world`, `n` generated worlds of each class, densities
+    unused), through the sweep (`run_sweep`, its files in DIR/held_out/,
+    its records keyed by the override's variant). Raises TuneError where
+    the held-out seed is None or a training seed."""
     config.check()
     if config.held_out_seed is None:
         raise TuneError("held_out_seed = None: no held-out fields to fly")
@@ -335,9 +347,12 @@ def held_out_sweep(
         n=n,
         seed=config.held_out_seed,
         methods=list(config.methods),
-        densities=list(dict.fromkeys(densities)),
+        densities=list(dict.fromkeys(densities))
+        if config.held_out_world == RANDOM
+        else [],
         out=os.path.join(config.out, "held_out"),
         variant=override_variant([tuned]),
+        world=config.held_out_world,
     )
     modify = partial(with_overrides, overrides=[tuned])
     modify = default_engine(held_out, SINGLE, modify)

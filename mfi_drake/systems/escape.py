@@ -146,24 +146,41 @@ class EscapeNavigator(LeafSystem):
     def memory(self, context) -> np.ndarray:
         return context.get_discrete_state_vector().CopyToVector()
 
-    def _initialize(self, context, state):
-        p, _ = position_velocity(self._state.Eval(context))
-        memory = escape.initial_memory(p, self.goal)
-        state.get_mutable_discrete_state(self._memory).SetFromVector(memory)
+    def initial_memory(self, x) -> np.ndarray:
+        """The memory at initialization, the vehicle at state x."""
+        p, _ = position_velocity(x)
+        return escape.initial_memory(p, self.goal)
 
-    def _update(self, context, state):
-        memory = self.memory(context)
-        p, v = position_velocity(self._state.Eval(context))
-        new = escape.update_memory(
+    def next_memory(self, memory, t: float, x, scene) -> np.ndarray:
+        """The memory after the update at the start of a step at time t
+        (state x, the static scene's readings `scene`: a lone vehicle's
+        readings, in a fleet the input "scene"), as the per-step event
+        makes it; `flight.step.NavigationStep` makes it so between two
+        calls."""
+        p, v = position_velocity(x)
+        return escape.update_memory(
             memory,
-            context.get_time(),
+            t,
             p,
             v,
-            self._scene.Eval(context),
+            scene,
             self.goal,
             self.collision_radius,
             self.rule,
             self.ground,
+        )
+
+    def _initialize(self, context, state):
+        memory = self.initial_memory(self._state.Eval(context))
+        state.get_mutable_discrete_state(self._memory).SetFromVector(memory)
+
+    def _update(self, context, state):
+        memory = self.memory(context)
+        new = self.next_memory(
+            memory,
+            context.get_time(),
+            self._state.Eval(context),
+            self._scene.Eval(context),
         )
         state.get_mutable_discrete_state(self._memory).SetFromVector(new)
         if new[escape.PHASE] == escape.TRAPPED:
