@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import EventStatus
 
+from mfi_drake.app.cli import main
 from mfi_drake.config.scenario import OtherVehicle
 from mfi_drake.flight.builder import place_quadrotor
 from mfi_drake.flight.diagram import build_diagram, vehicle_scenarios
@@ -245,3 +246,25 @@ def test_the_swarms_fly_as_mfi_flies_them(name, integration):
     for a, b in zip([want, *want.others], [got, *got.others], strict=True):
         np.testing.assert_array_equal(b.times, a.times)
         np.testing.assert_array_equal(b.log["state"], a.log["state"])
+
+
+@pytest.mark.parametrize(
+    "scene, change, named",
+    [
+        ("swarm_corridor", "sensor: !DepthCamera {}", "sensor: cameras render"),
+        (
+            "moving_crossing",
+            "other_vehicles: [{start: [0, 3, 2], goal: [9, 3, 2]}]",
+            "obstacles: moving",
+        ),
+    ],
+)
+def test_what_a_fleet_of_mfi_nc_cannot_fly_is_refused_before_flying(
+    tmp_path, capsys, scene, change, named
+):
+    """On the systems engine (exchange) too, one line naming the field."""
+    argv = ["run", f"{SCENARIOS}/{scene}.yaml", "--method", "mfi-nc"]
+    assert main([*argv, "--set", change, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"method mfi-nc in a fleet: {named}" in err
+    assert len(err.strip().splitlines()) == 1

@@ -159,17 +159,15 @@ def _escape_navigator(s: Scenario, vehicle: Vehicle) -> EscapeNavigator:
     readings (`OtherVehicleReadings`' "scene") and its field every reading
     with the relative velocity where that is on. Refuses, by name, a fleet
     where the scene cannot be told from the others (cameras render them
-    into one depth image) or is not the memory's alone (moving obstacles,
-    sensor faults on the navigator's readings only)."""
-    fleet, f = bool(s.other_vehicles), s.faults
+    into one depth image) or holds moving obstacles. (A fleet flies
+    without faults: `config.scenario`.)"""
+    fleet = bool(s.other_vehicles)
     if fleet:
         why = None
         if not isinstance(s.sensor, SphereSensor):
             why = "sensor: cameras render the other vehicles into the scene"
         elif obstacles_move(s):
             why = "obstacles: moving ones are neither the scene nor a vehicle"
-        elif any((f.sensor_noise_std, f.dropout_prob, f.sensor_latency)):
-            why = "faults: the sensor's would reach the field, not the memory"
         if why:
             raise ScenarioError(f"method mfi-nc in a fleet: {why} (mfi flies it)")
     return EscapeNavigator(
