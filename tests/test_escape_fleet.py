@@ -38,8 +38,8 @@ RADIUS = VEHICLE.collision_radius
 
 def room_fleet(integration: str):
     """Two vehicles in the room of "room_exit" (seed 0, world 1), 1.2 m
-    apart, their goals outside beyond the door: MFI alone times out there
-    (measured: neither leaves in 90 s)."""
+    apart, their goals outside beyond the door: "mfi" (no escape rule) times out there
+    (measured: neither reaches its goal in 90 s, one integrator)."""
     world = nonconvex_world("room_exit", 0, 1, duration=90.0)
     start = [world.start[0], world.start[1] + 1.2, world.start[2]]
     goal = [world.goal[0], world.goal[1] + 2.0, world.goal[2]]
