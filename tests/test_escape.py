@@ -11,7 +11,7 @@ from mfi_drake.config.scenario_yaml import layer, parse_scenario, read_override
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.methods import METHODS
 from mfi_drake.flight.simulation import simulate
-from mfi_drake.maths import escape
+from mfi_drake.maths import escape, escape_steering
 from mfi_drake.maths.layout import obstacle_signal
 from mfi_drake.world.nonconvex import THICKNESS, box, nonconvex_world
 
@@ -66,7 +66,7 @@ def test_subgoal_by_hand():
     κ (r − r_f) n + κ (0.5 m) e_z and the subgoal is `lookahead` along u."""
     memory = stalled(p=(5.0, 0.0, 1.5), v=(0.0, 1.0, 0.0))
     p = np.array([5.0, 0.0, 1.5])
-    target = escape.subgoal(memory, p, WALL, GOAL, RADIUS, RULE)
+    target = escape_steering.subgoal(memory, p, WALL, GOAL, RADIUS, RULE)
     pull = RULE.hug * (0.6 - RADIUS - RULE.follow_distance)
     u = np.array([pull, 1.0, RULE.hug * 0.5])
     expected = p + RULE.lookahead * u / np.linalg.norm(u)
@@ -76,12 +76,12 @@ def test_subgoal_by_hand():
     low = np.array([5.0, 0.0, -3.0])
     u = np.array([pull, 1.0, 1.0])
     expected = low + RULE.lookahead * u / np.linalg.norm(u)
-    assert escape.subgoal(memory, low, WALL, GOAL, RADIUS, RULE) == pytest.approx(
-        expected
-    )
+    assert escape_steering.subgoal(
+        memory, low, WALL, GOAL, RADIUS, RULE
+    ) == pytest.approx(expected)
     # Toward the goal the subgoal is the goal itself.
     fresh = escape.initial_memory(p, GOAL)
-    assert escape.subgoal(fresh, p, WALL, GOAL, RADIUS, RULE) is GOAL
+    assert escape_steering.subgoal(fresh, p, WALL, GOAL, RADIUS, RULE) is GOAL
 
 
 def test_leave_when_nearer_than_the_hit_and_the_goal_is_in_view():
@@ -152,13 +152,13 @@ def brake(r0: float, s0: float, k: float, c: float) -> float:
     ("k", "v_d", "r_b"), [(1.5 / 0.775, 1.0, 0.6), (3.0, 1.0, 0.6)]
 )
 def test_the_corner_rate_is_the_largest_that_stops_before_the_surface(k, v_d, r_b):
-    c = escape.corner_rate(k, v_d, r_b)
+    c = escape_steering.corner_rate(k, v_d, r_b)
     assert 0.0 < c <= k / 4.0
     assert brake(r_b, v_d, k, c) > -1e-6
     if c < k / 4.0:  # a little more and the surface is reached
         assert brake(r_b, v_d, k, 1.05 * c) < 0.0
     # Too fast to stop with any setpoint: the full brake (c = 0).
-    assert escape.corner_rate(k, 2.0 * k * r_b, r_b) == 0.0
+    assert escape_steering.corner_rate(k, 2.0 * k * r_b, r_b) == 0.0
 
 
 def test_a_wall_ahead_takes_over_and_a_far_jamb_does_not():
@@ -195,17 +195,24 @@ def test_corner_speed_by_hand():
     corner = obstacle_signal([np.array([0.5, 0.0, 0.0]), np.array([0.0, 0.5, 0.0])])
     v = np.array([0.6, 0.6, 0.0])
     expected = rate * (0.5 - RADIUS) * np.sqrt(2.0)
-    assert escape.corner_speed(corner, v, RADIUS, r_b, rate) == pytest.approx(expected)
+    assert escape_steering.corner_speed(corner, v, RADIUS, r_b, rate) == pytest.approx(
+        expected
+    )
     # Heading along +x: only the +x wall is approached, l_a·n = 1.
-    along = escape.corner_speed(corner, np.array([1.0, 0.0, 0.0]), RADIUS, r_b, rate)
+    along = escape_steering.corner_speed(
+        corner, np.array([1.0, 0.0, 0.0]), RADIUS, r_b, rate
+    )
     assert along == pytest.approx(rate * (0.5 - RADIUS))
     corridor = obstacle_signal([np.array([0.0, 0.5, 0.0]), np.array([0.0, -0.5, 0.0])])
     one = obstacle_signal([np.array([0.5, 0.0, 0.0])])
     for readings, velocity in [(corridor, v), (one, v), (corner, -v)]:
-        assert escape.corner_speed(readings, velocity, RADIUS, r_b, rate) == np.inf
+        assert (
+            escape_steering.corner_speed(readings, velocity, RADIUS, r_b, rate)
+            == np.inf
+        )
     # Beyond r_b the second wall does not make a corner.
     far = obstacle_signal([np.array([0.5, 0.0, 0.0]), np.array([0.0, 0.9, 0.0])])
-    assert escape.corner_speed(far, v, RADIUS, r_b, rate) == np.inf
+    assert escape_steering.corner_speed(far, v, RADIUS, r_b, rate) == np.inf
 
 
 def test_the_escape_section_of_a_scenario_is_checked_and_flown():
@@ -399,6 +406,6 @@ def test_outside_the_hugging_circle_the_subgoal_is_along_its_tangent():
     p = np.array([5.0, 0.0, 2.0])
     memory = stalled(p=tuple(p), v=(0.0, 1.0, 0.0))
     far = obstacle_signal([np.array([2.0 * (RADIUS + RULE.follow_distance), 0, 0])])
-    target = escape.subgoal(memory, p, far, GOAL, RADIUS, RULE)
+    target = escape_steering.subgoal(memory, p, far, GOAL, RADIUS, RULE)
     u = np.array([np.cos(np.radians(30.0)), 0.5, 0.0])
     assert target == pytest.approx(p + RULE.lookahead * u)

@@ -18,7 +18,7 @@ from mfi_drake.config.scenario import DepthCamera, OtherVehicle, ScenarioError
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.fleet import unsupported
 from mfi_drake.flight.simulation import simulate
-from mfi_drake.maths import compiled, escape, fields
+from mfi_drake.maths import compiled, escape, escape_steering, fields
 from mfi_drake.maths.layout import POSITION, VELOCITY
 from mfi_drake.world.nonconvex import nonconvex_world, sealed_room
 
@@ -75,7 +75,7 @@ def test_the_compiled_rule_equals_the_python_rule_at_real_memories():
     (A, B, the subgoal) within 1e-12; FOLLOW, PASS and TRAPPED are met."""
     clones = compiled.compiled(escape)
     rule, navigator = compiled.record(RULE), NavigatorParams()
-    rate = escape.corner_rate(
+    rate = escape_steering.corner_rate(
         navigator.K_v / VEHICLES["drake_default"].mass, navigator.v_d, navigator.r_b
     )
     field = compiled.compiled_form(fields.obstacle_field)
@@ -99,7 +99,7 @@ def test_the_compiled_rule_equals_the_python_rule_at_real_memories():
             np.testing.assert_array_equal(again, new)
             memory = new
             phases.add(int(memory[escape.PHASE]))
-            want = escape.escape_terms(
+            want = escape_steering.escape_terms(
                 fields.obstacle_field,
                 memory,
                 p,
@@ -113,7 +113,7 @@ def test_the_compiled_rule_equals_the_python_rule_at_real_memories():
                 rate,
                 ground,
             )
-            got = clones.escape_terms(
+            got = compiled.compiled(escape_steering).escape_terms(
                 field,
                 memory,
                 p,

@@ -8,7 +8,7 @@ from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.simulation import simulate
-from mfi_drake.maths import escape
+from mfi_drake.maths import escape, escape_steering
 from mfi_drake.maths.layout import obstacle_signal
 from mfi_drake.world.nonconvex import room
 
@@ -55,7 +55,7 @@ def test_a_door_by_hand(width):
         following(width=width), 20.0, P, STEP / 0.05, jambs(width), GOAL, RADIUS, RULE
     )
     assert memory[escape.PHASE] == escape.PASS
-    target = escape.subgoal(memory, P, jambs(width), GOAL, RADIUS, RULE)
+    target = escape_steering.subgoal(memory, P, jambs(width), GOAL, RADIUS, RULE)
     assert target == pytest.approx(middle + [0.0, escape.PASS_AHEAD, 0.0])
     # Through: PASS_BEYOND past the middle, toward the goal again.
     beyond = middle + [0.0, escape.PASS_BEYOND + 0.01, 0.0]

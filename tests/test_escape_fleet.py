@@ -23,7 +23,7 @@ from mfi_drake.flight.diagram import build_diagram, vehicle_scenarios
 from mfi_drake.flight.fleet import OneIntegratorFleet
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.flight.simulator import simulator_at_start
-from mfi_drake.maths import escape, fields, fleet
+from mfi_drake.maths import escape, escape_steering, fields, fleet
 from mfi_drake.maths.layout import POSITION, STATE_SIZE, VELOCITY
 from mfi_drake.systems.exchange import message
 from mfi_drake.world.nonconvex import nonconvex_world, sealed_room
@@ -95,7 +95,7 @@ def test_the_chain_is_each_vehicles_escape_navigator_and_aims_by_the_scene():
         aims.append(out[2][1:])  # "escape": [phase, subgoal]
     want, readings = np.array(want), np.array(readings)
     arguments = list(chain_arguments(scene, states, readings, modes, False))
-    rate = escape.corner_rate(
+    rate = escape_steering.corner_rate(
         scene.navigator.K_v / VEHICLE.mass, scene.navigator.v_d, scene.navigator.r_b
     )
     arguments[-4:] = [memories, RULE, rate, escape.NO_GROUND]
@@ -107,9 +107,13 @@ def test_the_chain_is_each_vehicles_escape_navigator_and_aims_by_the_scene():
     apart = []  # how far the subgoal would move, aimed by the merged readings
     for k in range(len(states)):
         p = states[k, POSITION]
-        aim = escape.subgoal(memories[k], p, readings[k], goals[k], RADIUS, RULE)
+        aim = escape_steering.subgoal(
+            memories[k], p, readings[k], goals[k], RADIUS, RULE
+        )
         np.testing.assert_array_equal(aims[k], aim)
-        wrong = escape.subgoal(memories[k], p, merged[k], goals[k], RADIUS, RULE)
+        wrong = escape_steering.subgoal(
+            memories[k], p, merged[k], goals[k], RADIUS, RULE
+        )
         apart.append(np.linalg.norm(wrong - aim))
     assert max(apart) > 1.0
 

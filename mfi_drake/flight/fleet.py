@@ -105,7 +105,7 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
 
 def field_of(navigator) -> object:
     """The obstacle field of a navigator system: an `ObstacleNavigator`'s,
-    MFI's for `EscapeNavigator` (`escape.escape_terms` aims it)."""
+    MFI's for `EscapeNavigator` (`escape_steering.escape_terms` aims it)."""
     if isinstance(navigator, EscapeNavigator):
         return fields.obstacle_field
     return navigator.field

@@ -67,6 +67,7 @@ import numpy as np
 from mfi_drake.maths import (
     baselines,
     escape,
+    escape_steering,
     fields,
     fleet,
     layout,
@@ -75,7 +76,17 @@ from mfi_drake.maths import (
     so3,
 )
 
-MODULES = (so3, layout, fields, baselines, motion, quadcopter, escape, fleet)
+MODULES = (
+    so3,
+    layout,
+    fields,
+    baselines,
+    motion,
+    quadcopter,
+    escape,
+    escape_steering,
+    fleet,
+)
 
 
 def _identity(a):

@@ -18,17 +18,11 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   circulates round the surface about a fixed axis a, as a current round
   the obstacle (the picture of MFI; Ataka et al., Front. Robot. AI 9, 2022,
   doi 10.3389/frobt.2022.834177, keep a current's direction to get round
-  concave obstacles): its subgoal lies `lookahead` ahead along
-  u = s + κ ((p_g − p)·â) â, where n points to the followed surface's
-  closest point (the nearest reading not within 45° of ±a and not the
-  ground, else the last one remembered) at centre distance d, t = a × n /
-  |a × n|, ρ = R + r_f, and s = cos β n + sin β t with sin β = ρ/d outside
-  the circle of radius ρ round that point (the tangent to it: an edge is
-  rounded at r_f), s = t + κ (d − ρ) n inside it; the plane ⟂ a through
-  the goal (the goal's height for ±e_z) is hugged, its pull clipped at 1.
-  The first axis is ±e_z, the sign that continues the vehicle's motion
-  (it goes round horizontally the way it was going); then −that; then the
-  horizontal axis ⟂ the goal direction, both signs (over and under).
+  concave obstacles), toward a subgoal `lookahead` ahead at clearance
+  r_f (`escape_steering`). The first axis is ±e_z, the sign that
+  continues the vehicle's motion (it goes round horizontally the way it
+  was going); then −that; then the horizontal axis ⟂ the goal direction,
+  both signs (over and under).
 - The ground (its height, where the world has one) is never followed, and
   on a horizontal axis a traversal whose tangent leads down into it is
   skipped where it begins ("under" a surface on the ground) and exhausted
@@ -45,9 +39,6 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   the last gap passed is not passed again. (TangentBug's discontinuity
   points of the range data, Kamon, Rimon, Rivlin, IJRR 17(9), 1998, read
   from the closest points of separate obstacles.)
-- Corner brake (any phase but PASS): in a concave corner eq 19's setpoint keeps
-  the closing speed toward each surface below c·r (`corner_speed`,
-  `corner_rate`).
 - Leave: |r_g| < d_hit − `leave_margin` and no seen surface's tangent plane
   hides the goal (3DBug's leaving condition, with the tangent plane at the
   closest point as the local range data).
@@ -70,7 +61,9 @@ The memory (`MEMORY_SIZE` = 55 floats, a fixed layout below) is bounded in
 size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
 
-`maths.compiled` compiles this module for the compiled engine: one
+How the memory steers MFI's fields (the subgoal, the corner brake, eq
+16–19 redirected): `maths.escape_steering`. `maths.compiled` compiles this
+module for the compiled engine: one
 source, so its functions take no optional tuples, generators or
 `min(key=)`, and the ground is a float (`NO_GROUND` for none) inside.
 """
@@ -80,13 +73,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mfi_drake.maths.fields import (
-    goal_attraction_field,
-    speed_control_field,
-    superposed,
-)
 from mfi_drake.maths.layout import OBSTACLE_COUNT, POSITION, VELOCITY, readings
-from mfi_drake.maths.motion import relative_field
 
 # Phases of the memory.
 TOWARD = 0  # MFI toward the goal
@@ -137,22 +124,10 @@ PASS_BEYOND = 1.0  # m past the door's middle: through
 
 @dataclass
 class EscapeParams:
-    """The escape rule's constants (see the module docstring): a scenario's
-    `escape:` section, each overridable by `--set escape.NAME=VALUE`; every
-    number must be finite and > 0.
-
-    - stall_time [s], progress [m]: a trap is no gain of `progress` in the
-      best distance to the goal for `stall_time`.
-    - follow_distance [m] (r_f), hug [1/m] (κ), lookahead [m]: the subgoal
-      lies `lookahead` ahead of the way round the surface at clearance r_f
-      (κ: the pull out where nearer, and toward the goal's plane).
-    - follow_speed [m/s]: eq 19's v_d while following.
-    - leave_margin [m]: leave only this much nearer the goal than at H.
-    - loop_radius [m]: back this near H after 2·loop_radius away closes a
-      loop; revisit_radius [m]: a trap this near a hit point resumes it.
-    - corner_brake: eq 19's v_d limited in a concave corner
-      (`corner_speed`), also toward the goal.
-    """
+    """The escape rule's constants (the module docstring; the subgoal's and
+    the corner brake's: `escape_steering`): a scenario's `escape:` section,
+    each overridable by `--set escape.NAME=VALUE`; every number must be
+    finite and > 0."""
 
     stall_time: float = 15.0  # s without progress: trapped at a surface
     progress: float = 0.5  # m, the least gain in d_best that is progress
@@ -210,7 +185,11 @@ def followed_point(
     being rounded is kept, not the far one. The ground (height `ground`,
     None: none) is never followed: an endless plane cannot be gone round.
     The nearest where none is remembered; None if there is no candidate."""
-    points = _candidates(obstacle, p, a, ground)
+    return _followed(memory, _candidates(obstacle, p, a, ground), p, near)
+
+
+def _followed(memory: np.ndarray, points: list, p: np.ndarray, near: float):
+    """`followed_point` among the candidates `points` (`_candidates`)."""
     if len(points) == 0:
         return None
     nearest = points[0]  # readings come nearest first
@@ -288,17 +267,16 @@ def door(
     (a separate obstacle: the sensor reads one closest point an obstacle),
     their middle not the last gap passed. The way through is ⟂
     q' − q, from the vehicle toward the line through the two."""
-    middle, through = _gap(memory, obstacle, p, a, collision_radius, ground)
+    points = _candidates(obstacle, p, a, ground)
+    middle, through = _gap(memory, points, p, collision_radius)
     return (middle, through) if through.any() else None
 
 
-def _gap(memory, obstacle, p, a, collision_radius, ground) -> tuple:
-    """`door`'s (middle, unit direction through), `_no_gap` where there is
-    none (one type for numba)."""
-    if not memory[SURFACE_SEEN]:
-        return _no_gap()
-    points = _candidates(obstacle, p, a, ground)
-    if len(points) < 2:
+def _gap(memory, points: list, p, collision_radius) -> tuple:
+    """`door`'s (middle, unit direction through) among the candidates
+    `points` (`_candidates`), `_no_gap` where there is none (one type for
+    numba)."""
+    if not memory[SURFACE_SEEN] or len(points) < 2:
         return _no_gap()
     kept = points[_kept(points, memory[SURFACE])][1]
     if not _edge(kept, memory[SURFACE], p, memory[LAST_P]):
@@ -336,59 +314,6 @@ def _edge(q: np.ndarray, before: np.ndarray, p: np.ndarray, p_before) -> bool:
     step = p - p_before
     along = _norm(step - (step @ n) * n)
     return bool(along > 1e-6 and _norm(q - before) < EDGE_RATIO * along)
-
-
-def corner_rate(k: float, v_d: float, r_b: float) -> float:
-    """The gain c [1/s] of `corner_speed`'s closing-speed setpoint c·r: the
-    largest for which eq 19 alone stops a vehicle that enters the corner's
-    range r_b closing at v_d before it reaches the surface (k = K_v/m).
-
-    With eq 19 as the only brake the closing speed s = v·n obeys
-    ṡ = −k (s − c r), ṙ = −s: r̈ + k ṙ + k c r = 0, roots λ = (−k ± √(k² −
-    4kc))/2. From r(0) = r_b, ṙ(0) = −v_d, r stays > 0 exactly when
-    v_d ≤ |λ_fast| r_b (c ≤ k/4, real roots), so c = (k² − (2 v_d/r_b −
-    k)²)/(4k), k/4 (critically damped) where that exceeds k/4, 0 where no
-    c can (v_d > k r_b: the full brake stops it within v_d/k only)."""
-    excess = 2.0 * v_d / r_b - k
-    if excess <= 0.0:
-        return k / 4.0
-    return max(0.0, (k * k - excess * excess) / (4.0 * k))
-
-
-def corner_speed(
-    obstacle, v: np.ndarray, collision_radius: float, r_b: float, rate: float
-) -> float:
-    """The speed setpoint of eq 19 in a concave corner (math.inf where no
-    limit applies): |v| ≤ rate · r / (l_a·n) for each surface the vehicle
-    approaches (l_a·n > 0) at clearance r, so that its closing speed
-    follows the setpoint rate · r (`corner_rate`).
-
-    MFI's obstacle terms (eq 12, 14) are ⟂ v: they turn, they do not brake.
-    Against one surface a turn of at most 90° leaves it, but in a concave
-    corner (two or more seen surfaces within eq 15's range r_b, their
-    normals not opposed: `GAP_COSINE`) every tangent of one surface leads
-    into another, and in the corner of two walls and a floor none is left:
-    the vehicle must stop and turn back, and eq 19 is the only brake."""
-    seen = [
-        r_o
-        for r_o, s in readings(obstacle)
-        if s > 0.5 and _norm(r_o) - collision_radius < r_b
-    ]
-    normals = [r_o / _norm(r_o) for r_o in seen]
-    corner = False
-    for i in range(len(normals)):
-        for j in range(i):
-            corner = corner or normals[i] @ normals[j] > GAP_COSINE
-    speed = float(_norm(v))
-    if not corner or speed < 1e-9:
-        return math.inf
-    limit = math.inf
-    for i in range(len(seen)):
-        closing = (v @ normals[i]) / speed  # l_a·n
-        if closing > 0.0:
-            r = max(0.0, float(_norm(seen[i])) - collision_radius)
-            limit = min(limit, rate * r / closing)
-    return limit
 
 
 def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
@@ -485,11 +410,13 @@ def update_memory(
     if d < memory[D_HIT] - params.leave_margin and not goal_hidden(obstacle, r_g):
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
-    a = axis(memory, goal)
-    middle, through = _gap(memory, obstacle, p, a, collision_radius, ground)
+    # The followable readings, once for the door, the record and the
+    # followed point.
+    candidates = _candidates(obstacle, p, axis(memory, goal), ground)
+    middle, through = _gap(memory, candidates, p, collision_radius)
     memory[LAST_P] = p
     points = np.full((OBSTACLE_COUNT, 3), np.inf)
-    for i, (_, point) in enumerate(_candidates(obstacle, p, a, ground)):
+    for i, (_, point) in enumerate(candidates):
         points[i] = point
     memory[LAST_POINTS] = points.ravel()
     if through.any():
@@ -497,7 +424,7 @@ def update_memory(
         memory[PASSED] = middle
         memory[PHASE], memory[T_BEST] = PASS, t
         return memory
-    q = followed_point(memory, obstacle, p, a, near, ground)
+    q = _followed(memory, candidates, p, near)
     if q is not None:
         memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
     gone = _norm(p - memory[HIT])
@@ -540,197 +467,6 @@ def _on_hit_surface(memory: np.ndarray, radius: float) -> bool:
     if not memory[SURFACE_SEEN] or not np.isfinite(start).all():
         return True
     return bool(_norm(memory[SURFACE] - start) < radius)
-
-
-def subgoal(
-    memory: np.ndarray,
-    p: np.ndarray,
-    obstacle: np.ndarray,
-    goal: np.ndarray,
-    collision_radius: float,
-    params: EscapeParams,
-    ground: float | None = None,
-) -> np.ndarray:
-    """The point MFI steers to: the goal, or while following, `lookahead`
-    ahead along u = s + κ ((p_g − p)·â) â (see the module docstring)."""
-    return _aim(memory, p, obstacle, goal, collision_radius, params, ground)[0]
-
-
-def _aim(memory, p, obstacle, goal, collision_radius, params, ground) -> tuple:
-    """(`subgoal`, whether it is not the goal itself)."""
-    if memory[PHASE] == PASS:
-        # Along the line through the door's middle, PASS_AHEAD ahead of the
-        # vehicle's foot on it (pure pursuit: the offset from the line
-        # decays over about PASS_AHEAD of travel).
-        along = memory[DOOR_AXIS]
-        s = max(0.0, float((p - memory[DOOR]) @ along))
-        return memory[DOOR] + (s + PASS_AHEAD) * along, True
-    if memory[PHASE] != FOLLOW:
-        return goal, False
-    a = axis(memory, goal)
-    near = collision_radius + params.follow_distance
-    q = followed_point(memory, obstacle, p, a, near, ground)
-    if q is None:
-        if not memory[SURFACE_SEEN]:
-            return goal, False
-        q = memory[SURFACE]
-    r_o = q - p
-    distance = float(_norm(r_o))
-    n = r_o / distance
-    t = np.cross(a, n)
-    size = _norm(t)
-    if size < 1e-6:
-        return goal, False
-    if distance > near:
-        # Outside the circle of radius R + r_f round the followed point:
-        # along the tangent from p to that circle, angle asin(near/|r_o|)
-        # off n, so that an edge (a door's jamb) is rounded at r_f, not
-        # cut wide as a fixed pull lagging behind the turning n would.
-        beta = math.asin(near / distance)
-        surface = math.cos(beta) * n + math.sin(beta) * t / size
-    else:
-        pull = max(-1.0, params.hug * (distance - near))
-        surface = t / size + pull * n
-    # The plane ⟂ a through the goal is hugged as the surface is, with the
-    # same κ: circulating about ±e_z the vehicle keeps to the goal's height;
-    # about a horizontal axis, to the vertical plane through H and the goal
-    # (Bug algorithms' plane through the goal). Off it, a lintel or a ceiling
-    # can stand in for the wall it follows and hide a door.
-    unit = a / _norm(a)
-    level = max(-1.0, min(1.0, params.hug * ((goal - p) @ unit)))
-    u = surface + level * unit
-    return p + params.lookahead * u / _norm(u), True
-
-
-def steering(
-    memory: np.ndarray,
-    p: np.ndarray,
-    v: np.ndarray,
-    scene: np.ndarray,
-    goal: np.ndarray,
-    collision_radius: float,
-    navigator,
-    rule: EscapeParams,
-    rate: float,
-    ground: float | None = None,
-) -> tuple:
-    """(subgoal ĝ, whether it is not the goal, eq 19's speed setpoint) from
-    the memory and the static scene's readings `scene` (a fleet's other
-    vehicles are not in them: `escape_terms`): v_d at the follow speed
-    while ĝ is not the goal, at most `corner_speed` (gain `rate`,
-    `corner_rate`) in a concave corner outside PASS."""
-    target, steered = _aim(memory, p, scene, goal, collision_radius, rule, ground)
-    v_d = navigator.v_d
-    if steered:
-        v_d = rule.follow_speed
-    # Through a door the jambs (and the ground or lintel) within r_b are
-    # the sides of the gap flown through, not a corner ahead: eq 14–15
-    # guard each, as MFI's do in any gap.
-    if rule.corner_brake and memory[PHASE] != PASS:
-        corner = corner_speed(scene, v, collision_radius, navigator.r_b, rate)
-        v_d = min(v_d, corner)
-    return target, steered, v_d
-
-
-def redirected(
-    B: np.ndarray,
-    v: np.ndarray,
-    target: np.ndarray,
-    goal: np.ndarray,
-    p: np.ndarray,
-    steered: bool,
-    v_d: float,
-    navigator,
-) -> np.ndarray:
-    """B with the rule's changes to eq 19 and 16–18 (`steering`'s): F_v at
-    the setpoint v_d instead of MFI's, F_v(v_d) − F_v(MFI's v_d) added, and
-    while steered the redirection F_gc(ĝ) − F_gc(g)."""
-    if v_d < navigator.v_d:
-        # Eq 19 at the lower speed setpoint instead of v_d.
-        B = (
-            B
-            + speed_control_field(v, navigator.K_v, v_d)
-            - speed_control_field(v, navigator.K_v, navigator.v_d)
-        )
-    if steered:
-        smooth, K = navigator.smooth_goal_turn, navigator.K_omega
-        B = (
-            B
-            + goal_attraction_field(v, target - p, K, smooth)
-            - goal_attraction_field(v, goal - p, K, smooth)
-        )
-    return B
-
-
-def escape_terms(
-    field,
-    memory: np.ndarray,
-    p: np.ndarray,
-    v: np.ndarray,
-    scene: np.ndarray,
-    obstacle: np.ndarray,
-    goal: np.ndarray,
-    collision_radius: float,
-    navigator,
-    rule: EscapeParams,
-    rate: float,
-    ground: float | None = None,
-) -> tuple:
-    """(A, B, subgoal ĝ): MFI's obstacle terms (`superposed` of `field`,
-    MFI's `obstacle_field`, of parameters `navigator`) over every reading
-    `obstacle` aimed at ĝ, B `redirected` (systems.escape). The memory's
-    subgoal and the corner brake read the static scene `scene` only
-    (`steering`): in a fleet the other vehicles, moving, are eq 11–15's to
-    turn the vehicle round, not surfaces to follow, corners or door jambs.
-    A lone vehicle passes its readings as both."""
-    target, steered, v_d = steering(
-        memory, p, v, scene, goal, collision_radius, navigator, rule, rate, ground
-    )
-    A, B = superposed(field, v, obstacle, target - p, collision_radius, navigator)
-    return A, redirected(B, v, target, goal, p, steered, v_d, navigator), target
-
-
-def relative_escape_terms(
-    field,
-    memory: np.ndarray,
-    x: np.ndarray,
-    scene: np.ndarray,
-    obstacle: np.ndarray,
-    u: np.ndarray,
-    turns: np.ndarray,
-    goal: np.ndarray,
-    collision_radius: float,
-    navigator,
-    rule: EscapeParams,
-    rate: float,
-    ground: float | None,
-    own_pace: bool,
-    blend_speed: float,
-) -> tuple:
-    """(F_o, [A, B], ĝ) of `escape_terms` in a fleet: the field over every
-    reading `obstacle` with the velocity relative to each (u, `turns`,
-    own_pace, blend_speed: `motion.relative_field`'s), aimed at the
-    subgoal of the memory, which with the corner brake reads the static
-    scene `scene` only (`steering`); F_o and B `redirected`."""
-    p, v = x[POSITION], x[VELOCITY]
-    target, steered, v_d = steering(
-        memory, p, v, scene, goal, collision_radius, navigator, rule, rate, ground
-    )
-    F_o, terms = relative_field(
-        field,
-        x,
-        obstacle,
-        u,
-        turns,
-        target,
-        collision_radius,
-        navigator,
-        own_pace,
-        blend_speed,
-    )
-    F_o = redirected(F_o, v, target, goal, p, steered, v_d, navigator)
-    B = redirected(terms[3:6], v, target, goal, p, steered, v_d, navigator)
-    return F_o, np.concatenate((terms[0:3], B)), target
 
 
 def fleet_memories(

@@ -9,7 +9,7 @@ functions the single-vehicle systems call, in the order they call them
 
 import numpy as np
 
-from mfi_drake.maths.escape import escape_terms, relative_escape_terms
+from mfi_drake.maths.escape_steering import escape_terms, relative_escape_terms
 from mfi_drake.maths.fields import next_mode, superposed
 from mfi_drake.maths.layout import POSITION, VELOCITY, slices
 from mfi_drake.maths.motion import relative_field, vehicle_readings
@@ -79,8 +79,8 @@ def fleet_chain(
     the escape rule's parameters (mfi-nc; None: none), which aims the
     field at the subgoal of vehicle k's memory `memories[k]`, read with
     the corner gain `rate` above the ground at height `ground` from the
-    scene's readings `scene[k]` alone (`escape.escape_terms`, in a fleet
-    `escape.relative_escape_terms`: the others are the field's)."""
+    scene's readings `scene[k]` alone (`escape_steering.escape_terms`, in a fleet
+    `escape_steering.relative_escape_terms`: the others are the field's)."""
     centres, velocities = states[:, POSITION], states[:, VELOCITY]
     for k in range(len(states)):
         x, mode, goal = states[k], modes[k], goals[k]

@@ -18,11 +18,11 @@ toward the goal into one toward ĝ (repair (g)'s drag then sees F_o +
 F_gc(ĝ), the turning force flown). The redirection is ⟂ v, as F_gc is:
 it does no work. Eq 19's setpoint is the rule's follow_speed while
 following and, in any phase but PASS (through a door), at most
-`escape.corner_speed` in a concave corner (the corner brake,
+`escape_steering.corner_speed` in a concave corner (the corner brake,
 `EscapeParams.corner_brake`): "obstacle_force"
 adds F_v(setpoint) − F_v(v_d), which brakes along −l_a.
 "obstacle_force_terms" holds [F, F_a + redirection + brake]: the maths
-is `escape.escape_terms`, which the compiled engine's chain calls too
+is `escape_steering.escape_terms`, which the compiled engine's chain calls too
 (`maths.fleet.fleet_chain`, the memory in `systems.fleet.FleetChain`). The ground's
 height (`ground`, None without one) tells the rule which reading is the
 ground: never followed, and nothing goes under it.
@@ -32,7 +32,7 @@ input "scene", the sphere sensor's readings of the static scene without
 the other vehicles (`OtherVehicleReadings`' "scene"), and eq 11–15 every
 reading of "obstacle", the others among them: they are moving obstacles
 that MFI's field turns the vehicle round, with the velocity relative to
-each where `relative` is given (`escape.relative_escape_terms`, as the
+each where `relative` is given (`escape_steering.relative_escape_terms`, as the
 memoryless navigator's `systems.relative.RelativeNavigator`). Alone,
 "obstacle" is both.
 Float only: `analyze` linearises the memoryless chain (`MfiNavigator`).
@@ -44,7 +44,7 @@ import numpy as np
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from mfi_drake.config.dynamic import RelativeVelocity
-from mfi_drake.maths import escape, fields
+from mfi_drake.maths import escape, escape_steering, fields
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     OBSTACLE_SIGNAL_SIZE,
@@ -107,7 +107,7 @@ class EscapeNavigator(LeafSystem):
         self.ground = None if ground is None else float(ground)
         # Eq 19's brake rate k = K_v/m gives the corner's setpoint gain.
         k = self.params.K_v / self.mass
-        self._rate = escape.corner_rate(k, self.params.v_d, self.params.r_b)
+        self._rate = escape_steering.corner_rate(k, self.params.v_d, self.params.r_b)
         self._last = LastResult()
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
@@ -207,10 +207,10 @@ class EscapeNavigator(LeafSystem):
         """(F, F_a + redirection, F_o, subgoal) at the state x, readings
         `obstacle` and `memory`; `scene` (a fleet's static scene, None:
         `obstacle`) and, with the relative velocity, each reading's u and
-        turn (`escape.relative_escape_terms`)."""
+        turn (`escape_steering.relative_escape_terms`)."""
         scene = obstacle if scene is None else scene
         if u is not None:
-            F_o, terms, target = escape.relative_escape_terms(
+            F_o, terms, target = escape_steering.relative_escape_terms(
                 fields.obstacle_field,
                 memory,
                 x,
@@ -229,7 +229,7 @@ class EscapeNavigator(LeafSystem):
             )
             return terms[:3], terms[3:], F_o, target
         p, v = position_velocity(x)
-        A, B, target = escape.escape_terms(
+        A, B, target = escape_steering.escape_terms(
             fields.obstacle_field,
             memory,
             p,

@@ -28,7 +28,7 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.vehicles import Vehicle
-from mfi_drake.maths import compiled, escape, fields, fleet
+from mfi_drake.maths import compiled, escape, escape_steering, fields, fleet
 from mfi_drake.maths.fields import MODE_PD
 from mfi_drake.maths.layout import (
     OBSTACLE_SIGNAL_SIZE,
@@ -115,7 +115,9 @@ class FleetChain(LeafSystem):
         self._ground = escape.NO_GROUND if ground is None else float(ground)
         rate = 0.0  # MFI's parameters only
         if rule is not None:
-            rate = escape.corner_rate(params.K_v / vehicle.mass, params.v_d, params.r_b)
+            rate = escape_steering.corner_rate(
+                params.K_v / vehicle.mass, params.v_d, params.r_b
+            )
         self._escape = (self._rule, rate, self._ground)
         self._memory_size = 0 if rule is None else escape.MEMORY_SIZE
         self._radius = vehicle.collision_radius
