@@ -309,6 +309,22 @@ def cmd_tune(args) -> int:
     return 1 if run.lost else 0
 
 
+def add_world(parser, flag: str, what: str, count: str) -> None:
+    """A flag naming the worlds flown: random fields (the default), a class
+    of the generated non-convex worlds, or every class."""
+    from mfi_drake.studies.sweep import NONCONVEX, WORLDS
+
+    parser.add_argument(
+        flag,
+        choices=WORLDS,
+        default=WORLDS[0],
+        metavar="KIND",
+        help=f"{what}, one of {', '.join(WORLDS)}: random obstacle fields, or "
+        f"{count} generated non-convex worlds of a class or of every class "
+        f"({NONCONVEX}) (docs/nonconvex.md)",
+    )
+
+
 def add_sweep(sub) -> None:
     """The `sweep` command's parser, added to the subparsers `sub`."""
     sweep = add_parser(
@@ -320,19 +336,9 @@ def add_sweep(sub) -> None:
             "a flight could not be run (rerun the same command to fly it)",
         ),
     )
-    from mfi_drake.studies.sweep import NONCONVEX, WORLDS
-
     add_overrides(sweep)
     add_field_count(sweep, 30, "fields", "density or --world class")
-    sweep.add_argument(
-        "--world",
-        choices=WORLDS,
-        default=WORLDS[0],
-        metavar="KIND",
-        help=f"the fields flown, one of {', '.join(WORLDS)}: random obstacle "
-        "fields, a class of the generated non-convex worlds, or "
-        f"{NONCONVEX} (every class), --n of each (docs/nonconvex.md)",
-    )
+    add_world(sweep, "--world", "the fields flown", "--n")
     sweep.add_argument(
         "--methods",
         metavar="M,M,...",
@@ -435,7 +441,6 @@ def add_scene(sub) -> None:
 
 def add_tune(sub) -> None:
     """The `tune` command's parser, added to the subparsers `sub`."""
-    from mfi_drake.studies.sweep import NONCONVEX, WORLDS
     from mfi_drake.studies.tune import (
         HELD_OUT_DENSITIES,
         HELD_OUT_N,
@@ -522,15 +527,7 @@ def add_tune(sub) -> None:
         help="held-out densities of the random fields, obstacles per m³, each "
         f"≥ 0 (default: {' '.join(f'{d:g}' for d in HELD_OUT_DENSITIES)})",
     )
-    tune.add_argument(
-        "--held-out-world",
-        choices=WORLDS,
-        default=WORLDS[0],
-        metavar="KIND",
-        help=f"what the winners are flown on, one of {', '.join(WORLDS)}: "
-        "random fields, or --held-out-n generated non-convex worlds of a class "
-        f"or of every class ({NONCONVEX}), as sweep --world",
-    )
+    add_world(tune, "--held-out-world", "what the winners are flown on", "--held-out-n")
     add_workers(tune)
     tune.add_argument(
         "--out", metavar="DIR", default="out/tune", help="output directory"
