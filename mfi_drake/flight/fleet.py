@@ -40,11 +40,13 @@ from mfi_drake.maths.layout import ROTORS, STATE_SIZE
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.fleet import FleetChain
+from mfi_drake.systems.motion import ObstacleMotion
 from mfi_drake.systems.navigation import (
     GoalAttractionSelector,
     ObstacleNavigator,
     PotentialGoalAttraction,
 )
+from mfi_drake.systems.relative import ObstacleVelocityEstimator
 from mfi_drake.systems.sensors import FleetSceneSensor
 from mfi_drake.world.motion import obstacles_move
 from mfi_drake.world.obstacles import register_obstacles
@@ -70,9 +72,9 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
     and eq 21 selector (mfi, mfi-paper; mfi-nc's escape rule, a memory a
-    vehicle), or APF's or GF's field and attraction; the sphere sensor, no
-    moving obstacle, no faults, no point-cloud map; a fleet with the
-    relative velocity."""
+    vehicle), or APF's or GF's field and attraction; the sphere sensor,
+    moving obstacles only for a lone vehicle without the escape rule, no
+    faults, no point-cloud map; a fleet with the relative velocity."""
     method = resolve_method(method)
     navigator, selector = method_systems(scenario, method)
     mfi = (
@@ -92,8 +94,12 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         )
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
-    if obstacles_move(scenario):
-        return "obstacles: the compiled chain flies no moving obstacle"
+    if obstacles_move(scenario) and (scenario.other_vehicles or escape):
+        who = "a fleet" if scenario.other_vehicles else f"method {method.name}"
+        return (
+            f"obstacles: the compiled chain flies no moving obstacle in {who} "
+            "(a lone vehicle with mfi, mfi-paper, apf or gf only)"
+        )
     if scenario.faults != Faults():
         return "faults: the compiled chain flies none"
     if scenario.map_points:
@@ -162,7 +168,7 @@ class OneIntegratorFleet:
         n = len(self.flown)
         builder = DiagramBuilder()
         scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
-        register_obstacles(scene_graph, scenario)
+        frames = register_obstacles(scene_graph, scenario)
         self.plants = [
             builder.AddNamedSystem(f"quadrotor_{k}", make_plant(self.vehicle))
             for k in range(n)
@@ -176,6 +182,15 @@ class OneIntegratorFleet:
             attract = fields.goal_terms
         estimate = scenario.relative_velocity
         scene = bool(scenario.obstacles) or scenario.ground is not None
+        if frames.frames:  # moving obstacles (a lone vehicle's, `unsupported`)
+            motion = builder.AddNamedSystem("obstacle_motion", ObstacleMotion(frames))
+            builder.Connect(
+                motion.get_output_port(),
+                scene_graph.get_source_pose_port(frames.source_id),
+            )
+        # Their velocities estimated from the readings, as `flight.chain.
+        # navigator_of`'s `relative_navigator` does on the systems engine.
+        relative = bool(frames.frames) and estimate.enabled
         chain = builder.AddNamedSystem(
             "fleet_chain",
             FleetChain(
@@ -192,13 +207,15 @@ class OneIntegratorFleet:
                 scene,
                 getattr(navigator, "rule", None),  # mfi-nc's escape rule
                 getattr(navigator, "ground", None),
+                relative,
             ),
         )
         builder.Connect(states.get_output_port(0), chain.GetInputPort("states"))
         self.scene_sensor = None
         if scene:
             self.scene_sensor = builder.AddNamedSystem(
-                "scene_sensor", FleetSceneSensor(scenario.sensor.radius, n)
+                "scene_sensor",
+                FleetSceneSensor(scenario.sensor.radius, n, bool(frames.frames)),
             )
             builder.Connect(
                 scene_graph.get_query_output_port(),
@@ -209,6 +226,22 @@ class OneIntegratorFleet:
             )
             builder.Connect(
                 self.scene_sensor.GetOutputPort("scene"), chain.GetInputPort("scene")
+            )
+        if relative:
+            estimator = builder.AddNamedSystem(
+                "velocity_estimator",
+                ObstacleVelocityEstimator(
+                    estimate.rate_hz, estimate.time_constant, estimate.gate
+                ),
+            )
+            builder.Connect(states.get_output_port(0), estimator.GetInputPort("state"))
+            builder.Connect(
+                self.scene_sensor.GetOutputPort("scene"),
+                estimator.GetInputPort("obstacle"),
+            )
+            builder.Connect(
+                estimator.GetOutputPort("obstacle_velocity"),
+                chain.GetInputPort("obstacle_velocity"),
             )
         rotors = builder.AddNamedSystem("rotors", Demultiplexer(ROTORS * n, ROTORS))
         builder.Connect(chain.GetOutputPort("rotor_forces"), rotors.get_input_port(0))
