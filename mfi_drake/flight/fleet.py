@@ -17,7 +17,10 @@ Simulator a vehicle exchanging states at `exchange_hz`, is
 
 A lone vehicle with `engine: compiled` is this diagram with N = 1: the
 compiled engine (`flies_compiled`), the same chain as the card's diagram of
-LeafSystems (`engine: systems`, `flight.diagram`) in one system.
+LeafSystems (`engine: systems`, `flight.diagram`) in one system. Among
+moving obstacles (a lone vehicle only) it has that diagram's
+`ObstacleMotion` and `ObstacleVelocityEstimator`, whose estimate reaches
+FleetChain's "obstacle_velocity" (docs/dynamic.md).
 """
 
 import dataclasses
@@ -33,14 +36,13 @@ from pydrake.systems.primitives import (
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES
-from mfi_drake.flight.diagram import make_plant, vehicle_scenarios
+from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths import baselines, fields
 from mfi_drake.maths.layout import ROTORS, STATE_SIZE
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.fleet import FleetChain
-from mfi_drake.systems.motion import ObstacleMotion
 from mfi_drake.systems.navigation import (
     GoalAttractionSelector,
     ObstacleNavigator,
@@ -49,7 +51,6 @@ from mfi_drake.systems.navigation import (
 from mfi_drake.systems.relative import ObstacleVelocityEstimator
 from mfi_drake.systems.sensors import FleetSceneSensor
 from mfi_drake.world.motion import obstacles_move
-from mfi_drake.world.obstacles import register_obstacles
 
 
 def flies_compiled(scenario: Scenario) -> bool:
@@ -168,7 +169,8 @@ class OneIntegratorFleet:
         n = len(self.flown)
         builder = DiagramBuilder()
         scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
-        frames = register_obstacles(scene_graph, scenario)
+        # Moving obstacles: a lone vehicle's (`unsupported`).
+        frames = add_obstacles(builder, scene_graph, scenario)
         self.plants = [
             builder.AddNamedSystem(f"quadrotor_{k}", make_plant(self.vehicle))
             for k in range(n)
@@ -182,12 +184,6 @@ class OneIntegratorFleet:
             attract = fields.goal_terms
         estimate = scenario.relative_velocity
         scene = bool(scenario.obstacles) or scenario.ground is not None
-        if frames.frames:  # moving obstacles (a lone vehicle's, `unsupported`)
-            motion = builder.AddNamedSystem("obstacle_motion", ObstacleMotion(frames))
-            builder.Connect(
-                motion.get_output_port(),
-                scene_graph.get_source_pose_port(frames.source_id),
-            )
         # Their velocities estimated from the readings, as `flight.chain.
         # navigator_of`'s `relative_navigator` does on the systems engine.
         relative = bool(frames.frames) and estimate.enabled
