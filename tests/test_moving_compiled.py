@@ -10,6 +10,7 @@ import functools
 
 import numpy as np
 import pytest
+from pydrake.geometry import SceneGraph
 
 from mfi_drake.app.cli import main
 from mfi_drake.config.scenario import ScenarioError
@@ -17,6 +18,8 @@ from mfi_drake.flight.fleet import check_engine, unsupported
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.studies import records as record_store
 from mfi_drake.world.fleets import with_vehicles
+from mfi_drake.world.motion import obstacle_pose
+from mfi_drake.world.obstacles import register_obstacles
 from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
@@ -49,6 +52,19 @@ def test_the_engines_fly_the_same_flight_among_moving_obstacles(name, method):
     np.testing.assert_array_equal(fast.times, systems.times)
     for key, values in systems.log.items():
         np.testing.assert_array_equal(fast.log[key], values, err_msg=key)
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_the_frames_poses_are_each_obstacles_pose(name):
+    """`ObstacleFrames.poses` (its constants converted once) against
+    `obstacle_pose` of each obstacle, to the bit."""
+    frames = register_obstacles(SceneGraph(), scene(name))
+    assert frames.frames
+    for t in np.linspace(0.0, 40.0, 41):
+        poses = frames.poses(t)
+        for frame_id, obstacle in frames.frames:
+            want = obstacle_pose(obstacle, t).GetAsMatrix4()
+            np.testing.assert_array_equal(poses.value(frame_id).GetAsMatrix4(), want)
 
 
 def test_what_the_compiled_chain_does_not_fly_among_moving_obstacles_is_named():
