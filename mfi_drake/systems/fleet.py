@@ -64,10 +64,10 @@ class FleetChain(LeafSystem):
     `scene`, else nothing); "obstacle_velocity": a lone vehicle's estimate
     of each reading's obstacle velocity (`relative.VELOCITY_SIGNAL_SIZE`,
     `relative.ObstacleVelocityEstimator`'s; only with `moving`, where the
-    chain flies the relative field of `maths.motion.relative_field`, as
+    chain flies the relative field, `maths.motion.relative_field`, as
     `relative.RelativeNavigator` does); "rotor_forces": u of every vehicle
-    (4 N); "rows": each vehicle's `maths.fleet.ROW`, what a single-vehicle diagram logs
-    (ROW_SIZE N).
+    (4 N); "rows": each vehicle's `maths.fleet.ROW`, what a single-vehicle
+    diagram logs (ROW_SIZE N).
 
     `field`, `attract`, `params`: the method's obstacle field and goal part
     (functions of modules `maths.compiled` compiles: MFI's
@@ -133,14 +133,14 @@ class FleetChain(LeafSystem):
         self._field = compiled.compiled_form(field)
         at_rest = np.zeros((n, STATE_SIZE))
         self._no_scene = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
-        self._at_rest = np.zeros((n, VELOCITY_SIGNAL_SIZE))  # no estimate
+        self._no_velocity = np.zeros((n, VELOCITY_SIGNAL_SIZE))  # no estimate
         self._moving = bool(moving)
         self._chain = compiled.specialised(
             functions.fleet_chain,
             self._field,
             at_rest,
             self._no_scene,
-            self._at_rest,
+            self._no_velocity,
             self._moving,
             np.zeros(n),
             self._goals,
@@ -309,7 +309,7 @@ class FleetChain(LeafSystem):
         # compiled flight).
         discrete = context.get_discrete_state_vector().CopyToVector()
         key = states.tobytes() + np.asarray(scene).tobytes() + discrete.tobytes()
-        u = self._at_rest
+        u = self._no_velocity
         if self._velocity is not None:
             u = self._velocity.Eval(context)
             key += u.tobytes()
