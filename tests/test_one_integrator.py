@@ -19,6 +19,7 @@ from mfi_drake.maths.layout import ROTORS, STATE_SIZE
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
 from mfi_drake.systems.exchange import message
+from mfi_drake.systems.relative import VELOCITY_SIGNAL_SIZE
 from mfi_drake.world.fleets import antipodal_circle, with_vehicles
 from mfi_drake.world.validation import load_scenario
 
@@ -96,6 +97,8 @@ def chain_arguments(scene, states, scene_readings, modes, compiled_form):
         field,
         states,
         scene_readings,
+        np.zeros((len(states), VELOCITY_SIGNAL_SIZE)),  # no moving obstacle
+        False,
         np.array(modes, float),
         np.array([s.goal for s in flown], float),
         params,

@@ -39,12 +39,14 @@ from mfi_drake.flight.builder import NavigationHandles, add_scenario_navigation
 from mfi_drake.flight.chain import LOG_LAYOUT, log_slices
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.systems.motion import ObstacleMotion
+from mfi_drake.world.motion import ObstacleFrames
 from mfi_drake.world.obstacles import register_obstacles
 
 # LOG_LAYOUT: the log of every FlightDiagram, named here for its readers.
 __all__ = [
     "LOG_LAYOUT",
     "FlightDiagram",
+    "add_obstacles",
     "build_diagram",
     "make_plant",
     "vehicle_scenarios",
@@ -88,12 +90,7 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
     builder = DiagramBuilder()
 
     scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
-    frames = register_obstacles(scene_graph, scenario)
-    if frames.frames:
-        motion = builder.AddNamedSystem("obstacle_motion", ObstacleMotion(frames))
-        builder.Connect(
-            motion.get_output_port(), scene_graph.get_source_pose_port(frames.source_id)
-        )
+    add_obstacles(builder, scene_graph, scenario)
     vehicle = VEHICLES[scenario.vehicle]
     plant = builder.AddNamedSystem("quadrotor", make_plant(vehicle))
     # A loaded scenario's goals are checked with a margin (`world.validation`);
@@ -118,6 +115,21 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
         sensor=sensor,
         handles=handles,
     )
+
+
+def add_obstacles(
+    builder: DiagramBuilder, scene_graph: SceneGraph, scenario: Scenario
+) -> ObstacleFrames:
+    """Registers `scenario`'s obstacles with `scene_graph` and, where some
+    move, adds the "obstacle_motion" source that poses them; returns their
+    frames (none: nothing moves)."""
+    frames = register_obstacles(scene_graph, scenario)
+    if frames.frames:
+        motion = builder.AddNamedSystem("obstacle_motion", ObstacleMotion(frames))
+        builder.Connect(
+            motion.get_output_port(), scene_graph.get_source_pose_port(frames.source_id)
+        )
+    return frames
 
 
 def vehicle_scenarios(scenario: Scenario) -> list[Scenario]:

@@ -17,7 +17,10 @@ Simulator a vehicle exchanging states at `exchange_hz`, is
 
 A lone vehicle with `engine: compiled` is this diagram with N = 1: the
 compiled engine (`flies_compiled`), the same chain as the card's diagram of
-LeafSystems (`engine: systems`, `flight.diagram`) in one system.
+LeafSystems (`engine: systems`, `flight.diagram`) in one system. Among
+moving obstacles (a lone vehicle only) it has that diagram's
+`ObstacleMotion` and `ObstacleVelocityEstimator`, whose estimate reaches
+FleetChain's "obstacle_velocity" (docs/dynamic.md).
 """
 
 import dataclasses
@@ -33,7 +36,7 @@ from pydrake.systems.primitives import (
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES
-from mfi_drake.flight.diagram import make_plant, vehicle_scenarios
+from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths import baselines, fields
 from mfi_drake.maths.layout import ROTORS, STATE_SIZE
@@ -45,9 +48,9 @@ from mfi_drake.systems.navigation import (
     ObstacleNavigator,
     PotentialGoalAttraction,
 )
+from mfi_drake.systems.relative import ObstacleVelocityEstimator
 from mfi_drake.systems.sensors import FleetSceneSensor
 from mfi_drake.world.motion import obstacles_move
-from mfi_drake.world.obstacles import register_obstacles
 
 
 def flies_compiled(scenario: Scenario) -> bool:
@@ -70,9 +73,9 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
     and eq 21 selector (mfi, mfi-paper; mfi-nc's escape rule, a memory a
-    vehicle), or APF's or GF's field and attraction; the sphere sensor, no
-    moving obstacle, no faults, no point-cloud map; a fleet with the
-    relative velocity."""
+    vehicle), or APF's or GF's field and attraction; the sphere sensor,
+    moving obstacles only for a lone vehicle without the escape rule, no
+    faults, no point-cloud map; a fleet with the relative velocity."""
     method = resolve_method(method)
     navigator, selector = method_systems(scenario, method)
     mfi = (
@@ -92,8 +95,12 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         )
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
-    if obstacles_move(scenario):
-        return "obstacles: the compiled chain flies no moving obstacle"
+    if obstacles_move(scenario) and (scenario.other_vehicles or escape):
+        who = "a fleet" if scenario.other_vehicles else f"method {method.name}"
+        return (
+            f"obstacles: the compiled chain flies no moving obstacle in {who} "
+            "(a lone vehicle with mfi, mfi-paper, apf or gf only)"
+        )
     if scenario.faults != Faults():
         return "faults: the compiled chain flies none"
     if scenario.map_points:
@@ -162,7 +169,8 @@ class OneIntegratorFleet:
         n = len(self.flown)
         builder = DiagramBuilder()
         scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
-        register_obstacles(scene_graph, scenario)
+        # Moving obstacles: a lone vehicle's (`unsupported`).
+        frames = add_obstacles(builder, scene_graph, scenario)
         self.plants = [
             builder.AddNamedSystem(f"quadrotor_{k}", make_plant(self.vehicle))
             for k in range(n)
@@ -176,6 +184,9 @@ class OneIntegratorFleet:
             attract = fields.goal_terms
         estimate = scenario.relative_velocity
         scene = bool(scenario.obstacles) or scenario.ground is not None
+        # Their velocities estimated from the readings, as `flight.chain.
+        # navigator_of`'s `relative_navigator` does on the systems engine.
+        relative = bool(frames.frames) and estimate.enabled
         chain = builder.AddNamedSystem(
             "fleet_chain",
             FleetChain(
@@ -192,13 +203,15 @@ class OneIntegratorFleet:
                 scene,
                 getattr(navigator, "rule", None),  # mfi-nc's escape rule
                 getattr(navigator, "ground", None),
+                relative,
             ),
         )
         builder.Connect(states.get_output_port(0), chain.GetInputPort("states"))
         self.scene_sensor = None
         if scene:
             self.scene_sensor = builder.AddNamedSystem(
-                "scene_sensor", FleetSceneSensor(scenario.sensor.radius, n)
+                "scene_sensor",
+                FleetSceneSensor(scenario.sensor.radius, n, bool(frames.frames)),
             )
             builder.Connect(
                 scene_graph.get_query_output_port(),
@@ -209,6 +222,22 @@ class OneIntegratorFleet:
             )
             builder.Connect(
                 self.scene_sensor.GetOutputPort("scene"), chain.GetInputPort("scene")
+            )
+        if relative:
+            estimator = builder.AddNamedSystem(
+                "velocity_estimator",
+                ObstacleVelocityEstimator(
+                    estimate.rate_hz, estimate.time_constant, estimate.gate
+                ),
+            )
+            builder.Connect(states.get_output_port(0), estimator.GetInputPort("state"))
+            builder.Connect(
+                self.scene_sensor.GetOutputPort("scene"),
+                estimator.GetInputPort("obstacle"),
+            )
+            builder.Connect(
+                estimator.GetOutputPort("obstacle_velocity"),
+                chain.GetInputPort("obstacle_velocity"),
             )
         rotors = builder.AddNamedSystem("rotors", Demultiplexer(ROTORS * n, ROTORS))
         builder.Connect(chain.GetOutputPort("rotor_forces"), rotors.get_input_port(0))

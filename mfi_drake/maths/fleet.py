@@ -11,7 +11,7 @@ import numpy as np
 
 from mfi_drake.maths.escape_steering import escape_terms, relative_escape_terms
 from mfi_drake.maths.fields import next_mode, superposed
-from mfi_drake.maths.layout import POSITION, VELOCITY, slices
+from mfi_drake.maths.layout import OBSTACLE_COUNT, POSITION, VELOCITY, slices
 from mfi_drake.maths.motion import relative_field, vehicle_readings
 from mfi_drake.maths.quadcopter import attitude_command, mix
 
@@ -40,6 +40,8 @@ def fleet_chain(
     field,
     states: np.ndarray,
     scene: np.ndarray,
+    scene_velocities: np.ndarray,
+    moving: bool,
     modes: np.ndarray,
     goals: np.ndarray,
     params,
@@ -85,10 +87,24 @@ def fleet_chain(
     for k in range(len(states)):
         x, mode, goal = states[k], modes[k], goals[k]
         p, v = x[POSITION], x[VELOCITY]
-        if len(states) == 1:  # alone: the static scene's field (`superposed`)
+        if len(states) == 1:  # alone: the scene's field alone
             obstacle = scene[k]
-            if rule is None:
+            if moving:  # the velocity relative to each reading's obstacle
+                F_o, terms = relative_field(
+                    field,
+                    x,
+                    obstacle,
+                    scene_velocities[k],
+                    np.zeros(OBSTACLE_COUNT),
+                    goal,
+                    radius,
+                    params,
+                    own_pace,
+                    blend_speed,
+                )
+            elif rule is None:
                 A, B = superposed(field, v, obstacle, goal - p, radius, params)
+                F_o, terms = A + B, np.concatenate((A, B))
             else:  # mfi-nc: MFI's field aimed at the escape rule's subgoal
                 A, B, _ = escape_terms(
                     field,
@@ -104,7 +120,7 @@ def fleet_chain(
                     rate,
                     ground,
                 )
-            F_o, terms = A + B, np.concatenate((A, B))
+                F_o, terms = A + B, np.concatenate((A, B))
         else:
             obstacle, u, flags = vehicle_readings(
                 p, scene[k], centres, velocities, radius, reach, k

@@ -40,6 +40,7 @@ from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
 from mfi_drake.systems.escape import TRAPPED_MESSAGE
 from mfi_drake.systems.last_result import LastResult
 from mfi_drake.systems.navigation import mode_witnesses
+from mfi_drake.systems.relative import VELOCITY_SIGNAL_SIZE
 
 
 class FleetChain(LeafSystem):
@@ -53,15 +54,20 @@ class FleetChain(LeafSystem):
         input_ports:
         - states
         - scene (optional)
+        - obstacle_velocity (optional)
         output_ports:
         - rotor_forces
         - rows
 
     "states": the N plants' states, stacked (12 N); "scene": each vehicle's
     sphere-sensor readings of the static scene, stacked (12 N; only with
-    `scene`, else nothing); "rotor_forces": u of every vehicle (4 N); "rows":
-    each vehicle's `maths.fleet.ROW`, what a single-vehicle diagram logs
-    (ROW_SIZE N).
+    `scene`, else nothing); "obstacle_velocity": a lone vehicle's estimate
+    of each reading's obstacle velocity (`relative.VELOCITY_SIGNAL_SIZE`,
+    `relative.ObstacleVelocityEstimator`'s; only with `moving`, where the
+    chain flies the relative field, `maths.motion.relative_field`, as
+    `relative.RelativeNavigator` does); "rotor_forces": u of every vehicle
+    (4 N); "rows": each vehicle's `maths.fleet.ROW`, what a single-vehicle
+    diagram logs (ROW_SIZE N).
 
     `field`, `attract`, `params`: the method's obstacle field and goal part
     (functions of modules `maths.compiled` compiles: MFI's
@@ -88,6 +94,7 @@ class FleetChain(LeafSystem):
         scene: bool,
         rule: escape.EscapeParams | None = None,
         ground: float | None = None,
+        moving: bool = False,
     ):
         super().__init__()
         self._goals = np.array(goals, float)
@@ -128,11 +135,15 @@ class FleetChain(LeafSystem):
         self._field = compiled.compiled_form(field)
         at_rest = np.zeros((n, STATE_SIZE))
         self._no_scene = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
+        self._no_velocity = np.zeros((n, VELOCITY_SIGNAL_SIZE))  # no estimate
+        self._moving = bool(moving)
         self._chain = compiled.specialised(
             functions.fleet_chain,
             self._field,
             at_rest,
             self._no_scene,
+            self._no_velocity,
+            self._moving,
             np.zeros(n),
             self._goals,
             *self._constants,
@@ -170,6 +181,12 @@ class FleetChain(LeafSystem):
         if scene:
             self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE * n)
             tickets.add(self._scene.ticket())
+        self._velocity = None
+        if moving:
+            self._velocity = self.DeclareVectorInputPort(
+                "obstacle_velocity", VELOCITY_SIGNAL_SIZE * n
+            )
+            tickets.add(self._velocity.ticket())
         # The one discrete state group: the modes, then the memories (mfi-nc).
         self._modes = self.DeclareDiscreteState(
             np.concatenate(
@@ -294,15 +311,21 @@ class FleetChain(LeafSystem):
         # compiled flight).
         discrete = context.get_discrete_state_vector().CopyToVector()
         key = states.tobytes() + np.asarray(scene).tobytes() + discrete.tobytes()
-        return self._last(key, self._evaluate, states, scene, discrete)
+        u = self._no_velocity
+        if self._velocity is not None:
+            u = self._velocity.Eval(context)
+            key += u.tobytes()
+        return self._last(key, self._evaluate, states, scene, u, discrete)
 
-    def _evaluate(self, states, scene, discrete):
+    def _evaluate(self, states, scene, u, discrete):
         n = len(self._goals)
         rows = np.empty((n, fleet.ROW_SIZE))
         self._chain(
             self._field,
             states.reshape(n, STATE_SIZE),
             np.array(scene).reshape(n, OBSTACLE_SIGNAL_SIZE),
+            np.array(u).reshape(n, VELOCITY_SIGNAL_SIZE),
+            self._moving,
             discrete[:n],
             self._goals,
             *self._constants,

@@ -149,10 +149,11 @@ class SphereSensor(LeafSystem):
 
 
 class FleetSceneSensor(LeafSystem):
-    """Every vehicle's `SphereSensor` reading of an anchored scene, in one
-    Python call an evaluation for the fleet (`flight.fleet`, one
-    integrator): each vehicle's reading is its own sphere sensor's, bit for
-    bit (`AnchoredReadings`).
+    """Every vehicle's `SphereSensor` reading of the scene, in one Python
+    call an evaluation for the fleet (`flight.fleet`, one integrator): each
+    vehicle's reading is its own sphere sensor's, bit for bit
+    (`AnchoredReadings`; with `moving`, proximity geometry that moves, a
+    query at every evaluation as `SphereSensor`'s with `moving`).
 
     .. pydrake_system::
 
@@ -168,10 +169,11 @@ class FleetSceneSensor(LeafSystem):
     [r_o, seen], nearest first, stacked (OBSTACLE_SIGNAL_SIZE n).
     """
 
-    def __init__(self, radius: float, n: int):
+    def __init__(self, radius: float, n: int, moving: bool = False):
         super().__init__()
         self._n = int(n)
-        self._anchored = AnchoredReadings(radius, self._n)
+        self._radius = float(radius)
+        self._anchored = None if moving else AnchoredReadings(radius, self._n)
         self._query = self.DeclareAbstractInputPort(
             "query", AbstractValue.Make(QueryObject())
         )
@@ -185,8 +187,14 @@ class FleetSceneSensor(LeafSystem):
 
     def _calc(self, context, output):
         states = self._states.Eval(context).reshape(self._n, STATE_SIZE)
-        readings = self._anchored(self._query.Eval(context), states[:, POSITION])
-        output.SetFromVector(readings.ravel())
+        query = self._query.Eval(context)
+        if self._anchored is None:
+            readings = np.concatenate(
+                [nearest_obstacles(query, x[POSITION], self._radius) for x in states]
+            )
+        else:
+            readings = self._anchored(query, states[:, POSITION]).ravel()
+        output.SetFromVector(readings)
 
 
 class VehicleGeometry(LeafSystem):

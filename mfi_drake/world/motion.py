@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.geometry import FramePoseVector
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
@@ -56,12 +56,33 @@ class ObstacleFrames:
 
     def __post_init__(self):
         self.frames = [(f, copy.deepcopy(o)) for f, o in self.frames]
+        # `obstacle_pose`'s constants converted once: the poses are asked
+        # for at every new time (converting them cost a sweep flight among
+        # 20 obstacles, 6 moving, 15 % of its CPU); the same numbers.
+        self._constants = [
+            (
+                frame_id,
+                RotationMatrix(RollPitchYaw(np.radians(o.rpy_deg))),
+                np.asarray(o.position, float),
+                *(
+                    np.asarray(value, float)
+                    for value in (
+                        o.motion.velocity,
+                        o.motion.amplitude,
+                        o.motion.angular_frequency,
+                        o.motion.phase,
+                    )
+                ),
+            )
+            for frame_id, o in self.frames
+        ]
 
     def poses(self, t: float) -> FramePoseVector:
-        """Every frame's pose at time t."""
+        """Every frame's pose at time t (`obstacle_pose`'s)."""
         poses = FramePoseVector()
-        for frame_id, obstacle in self.frames:
-            poses.set_value(frame_id, obstacle_pose(obstacle, t))
+        for frame_id, rotation, position, *motion in self._constants:
+            pose = RigidTransform(rotation, position + displacement(*motion, t))
+            poses.set_value(frame_id, pose)
         return poses
 
     def fix(self, scene_graph, context, t: float) -> None:
