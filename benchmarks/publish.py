@@ -492,7 +492,7 @@ def speed_numbers(root: str) -> dict[str, str]:
     found = {
         "planar_wall": r"MFI \(Python LeafSystems\): .*?= ([\d.]+x) real time",
         "ratio": r"ratio of real-time factors MFI / C\+\+: ([\d.]+) wall",
-        "flights": r"2 workers .*?([\d.]+) flights/min",
+        "flights": r"mfi, 2 workers, compiled .*?([\d.]+) flights/min",
         "cpu": r"with \S*protocol_choices.yaml:\n\s+mfi .*?x([\d.]+) GF's",
     }
     out = {}
