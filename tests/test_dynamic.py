@@ -278,7 +278,8 @@ def test_tree_on_ground_flies_in_few_steps_with_a_brake_margin():
     path = os.path.join(SCENARIOS, "tree_on_ground.yaml")
     steps = {
         margin: simulate(
-            load_scenario(path, [("m", f"navigator: {{brake_margin: {margin}}}")])
+            load_scenario(path, [("m", f"navigator: {{brake_margin: {margin}}}")]),
+            "mfi-memoryless",  # the field alone: the corner brake smooths it too
         ).metrics["steps"]
         for margin in (0.0, 0.1)
     }

@@ -27,7 +27,9 @@ from mfi_drake.world.validation import load_scenario
 from .conftest import ROOT, SCENARIOS
 
 WALL = f"{SCENARIOS}/planar_wall.yaml"
-COMPILED = ("mfi", "mfi-paper", "apf", "gf")  # what the compiled engine flies
+# The memoryless chains the compiled engine flies (the escape rule's memory:
+# tests/test_escape_compiled.py).
+COMPILED = ("mfi-memoryless", "mfi-paper", "apf", "gf")
 
 
 def on_compiled(scenario):
@@ -280,7 +282,7 @@ def test_a_new_stamp_prunes_the_stale_stamps_of_its_cache_directory(
                     "sensor: !DepthCamera {}",
                 ),
             ],
-            "method mfi-nc in a fleet: sensor: cameras render the other vehicles",
+            "fleet_integration = 'one': sensor: the compiled chain flies the sphere",
         ),
         (
             ["run", f"{SCENARIOS}/swarm_corridor.yaml", "--set", "engine: compiled"],

@@ -16,16 +16,18 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import EventStatus
 
-from mfi_drake.app.cli import main
 from mfi_drake.config.scenario import OtherVehicle
+from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.builder import place_quadrotor
 from mfi_drake.flight.diagram import build_diagram, vehicle_scenarios
 from mfi_drake.flight.fleet import OneIntegratorFleet
+from mfi_drake.flight.methods import METHODS, escape_off
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.flight.simulator import simulator_at_start
 from mfi_drake.maths import escape, escape_steering, fields, fleet
 from mfi_drake.maths.layout import POSITION, STATE_SIZE, VELOCITY
 from mfi_drake.systems.exchange import message
+from mfi_drake.systems.navigation import ObstacleNavigator
 from mfi_drake.world.nonconvex import nonconvex_world, sealed_room
 from mfi_drake.world.validation import load_scenario
 
@@ -253,22 +255,34 @@ def test_the_swarms_fly_as_mfi_flies_them(name, integration):
 
 
 @pytest.mark.parametrize(
-    "scene, change, named",
+    "scene, change, why",
     [
-        ("swarm_corridor", "sensor: !DepthCamera {}", "sensor: cameras render"),
+        ("swarm_corridor", "sensor: !DepthCamera {}", "a fleet with cameras"),
         (
             "moving_crossing",
             "other_vehicles: [{start: [0, 3, 2], goal: [9, 3, 2]}]",
-            "obstacles: moving",
+            "obstacles move",
         ),
+        ("moving_crossing", None, "obstacles move"),
     ],
 )
-def test_what_a_fleet_of_mfi_nc_cannot_fly_is_refused_before_flying(
-    tmp_path, capsys, scene, change, named
-):
-    """On the systems engine (exchange) too, one line naming the field."""
-    argv = ["run", f"{SCENARIOS}/{scene}.yaml", "--method", "mfi-nc"]
-    assert main([*argv, "--set", change, "--out", str(tmp_path / "out")]) == 2
-    err = capsys.readouterr().err
-    assert f"method mfi-nc in a fleet: {named}" in err
-    assert len(err.strip().splitlines()) == 1
+def test_mfi_flies_memoryless_where_no_static_scene_can_be_told(scene, change, why):
+    """Where the readings hold no static scene the memory could remember
+    (cameras render the other vehicles into it; moving obstacles), MFI and
+    its alias mfi-nc fly MFI's memoryless navigator, as mfi-memoryless."""
+    layers = [("change", change)] if change else []
+    scenario = load_scenario(f"{SCENARIOS}/{scene}.yaml", layers)
+    assert escape_off(scenario) == why
+    for name in ("mfi", "mfi-nc", "mfi-memoryless"):
+        navigator = METHODS[name].navigator(scenario, VEHICLES[scenario.vehicle])
+        assert isinstance(navigator, ObstacleNavigator)  # not EscapeNavigator
+        assert navigator.field is fields.obstacle_field
+
+
+def test_a_lone_mfi_among_moving_obstacles_is_mfi_memoryless_to_the_bit():
+    """Oracle: the memoryless method's flight (issue 38's default MFI may not
+    change what it cannot improve)."""
+    scene = load_scenario(f"{SCENARIOS}/moving_crossing.yaml")
+    want, got = simulate(scene, "mfi-memoryless"), simulate(scene, "mfi")
+    np.testing.assert_array_equal(got.positions, want.positions)
+    assert got.metrics["min_clearance"] == want.metrics["min_clearance"]

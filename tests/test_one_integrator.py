@@ -211,7 +211,7 @@ def test_a_fleet_on_one_integrator_stops_where_two_vehicles_touch():
 @pytest.mark.parametrize(
     "change, method, named",
     [
-        ({"sensor": "cameras"}, "mfi-nc", "mfi-nc in a fleet: sensor: cameras"),
+        ({"sensor": "cameras"}, "mfi-nc", "sensor: the compiled chain flies the"),
         ({"sensor": "cameras"}, "mfi", "sensor"),
     ],
 )

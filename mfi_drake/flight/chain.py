@@ -22,11 +22,12 @@ from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSi
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Cameras, Scenario, Sensor, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES, Vehicle
-from mfi_drake.flight.methods import Method, resolve_method
+from mfi_drake.flight.methods import Method, mfi_navigator, resolve_method
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE, slices
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.camera import add_depth_cameras
 from mfi_drake.systems.control import AttitudePD, RotorMixer
+from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.exchange import OtherVehicleReadings, OtherVehicleSpheres
 from mfi_drake.systems.faults import (
     add_rotor_faults,
@@ -280,6 +281,10 @@ def connect_controller(
         navigator.GetOutputPort("obstacle_force"),
         selector.GetInputPort("obstacle_force"),
     )
+    if navigator.HasInputPort("goal_mode"):  # the escape rule's (eq 21's mode)
+        builder.Connect(
+            selector.GetOutputPort("mode"), navigator.GetInputPort("goal_mode")
+        )
     builder.Connect(
         selector.GetOutputPort("navigation_force"),
         attitude.GetInputPort("navigation_force"),
@@ -336,6 +341,10 @@ def navigator_of(scenario: Scenario, method: Method, vehicle: Vehicle, moving: b
     (MFI and the baselines; a user field gets the vehicle's own velocity,
     as its contract says)."""
     navigator = method.navigator(scenario, vehicle)
+    if moving and isinstance(navigator, EscapeNavigator):
+        # Obstacles of the SceneGraph move that the scenario does not list
+        # (the builder's): no static scene to remember (`escape_off`).
+        navigator = mfi_navigator(scenario, vehicle)
     estimate = scenario.relative_velocity
     dynamic = bool(scenario.other_vehicles) or moving
     if dynamic and estimate.enabled and isinstance(navigator, ObstacleNavigator):

@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
+from mfi_drake.config.scenario import Scenario, SphereSensor
 from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.navigation import (
@@ -91,9 +91,7 @@ METHODS: dict[str, Method] = {
         name="mfi",
         label="MFI",
         colour="tab:blue",
-        navigator=lambda s, vehicle: MfiNavigator(
-            s.navigator, _goal(s), vehicle.collision_radius
-        ),
+        navigator=lambda s, vehicle: mfi_navigator(s, vehicle),
         goal_attraction=lambda s, vehicle: GoalAttractionSelector(
             s.navigator, _goal(s), mass=vehicle.mass
         ),
@@ -154,22 +152,36 @@ METHODS: dict[str, Method] = {
 }
 
 
-def _escape_navigator(s: Scenario, vehicle: Vehicle) -> EscapeNavigator:
-    """mfi-nc's navigator; in a fleet its memory reads the static scene's
-    readings (`OtherVehicleReadings`' "scene") and its field every reading
-    with the relative velocity where that is on. Refuses, by name, a fleet
-    where the scene cannot be told from the others (cameras render them
-    into one depth image) or holds moving obstacles. (A fleet flies
-    without faults: `config.scenario`.)"""
+def mfi_navigator(s: Scenario, vehicle: Vehicle) -> "MfiNavigator":
+    """MFI's memoryless navigator, eq 11–15 at the scenario's `navigator` gains."""
+    return MfiNavigator(s.navigator, _goal(s), vehicle.collision_radius)
+
+
+def escape_off(s: Scenario) -> str | None:
+    """Why MFI flies `s` without the escape rule's memory, or None where it
+    flies with it. The memory remembers static surfaces (hit points, the
+    followed surface, a door's jambs): among moving obstacles there is no
+    static scene to tell from the readings, nor in a fleet whose cameras
+    render the other vehicles into the scene's depth images. There MFI
+    flies memoryless, as `mfi-memoryless` does (docs/nonconvex.md)."""
+    if obstacles_move(s):
+        return "obstacles move"
+    if s.other_vehicles and not isinstance(s.sensor, SphereSensor):
+        return "a fleet with cameras"
+    return None
+
+
+def _escape_navigator(
+    s: Scenario, vehicle: Vehicle
+) -> "EscapeNavigator | MfiNavigator":
+    """The default MFI's navigator: MFI with the escape rule and its memory
+    (`EscapeNavigator`), memoryless where `escape_off` says. In a fleet its
+    memory reads the static scene's readings (`OtherVehicleReadings`'
+    "scene") and its field every reading with the relative velocity where
+    that is on."""
+    if escape_off(s):
+        return mfi_navigator(s, vehicle)
     fleet = bool(s.other_vehicles)
-    if fleet:
-        why = None
-        if not isinstance(s.sensor, SphereSensor):
-            why = "sensor: cameras render the other vehicles into the scene"
-        elif obstacles_move(s):
-            why = "obstacles: moving ones are neither the scene nor a vehicle"
-        if why:
-            raise ScenarioError(f"method mfi-nc in a fleet: {why} (mfi flies it)")
     return EscapeNavigator(
         s.navigator,
         _goal(s),
@@ -182,15 +194,27 @@ def _escape_navigator(s: Scenario, vehicle: Vehicle) -> EscapeNavigator:
     )
 
 
-# MFI with the escape rule and its memory in non-convex worlds
-# (docs/nonconvex.md): MFI's selector aimed at the goal, MFI's gains.
+# MFI without the escape rule: the default MFI before non-convex worlds
+# (the same flights to the bit), the field `analyze` linearises.
+METHODS["mfi-memoryless"] = replace(
+    METHODS["mfi"],
+    name="mfi-memoryless",
+    label="MFI (memoryless)",
+    colour="slateblue",
+    in_defaults=False,
+)
+# The default MFI: the escape rule and its memory in non-convex worlds
+# (docs/nonconvex.md); in convex worlds its corner brake is all that acts.
+METHODS["mfi"] = replace(
+    METHODS["mfi"], navigator=lambda s, vehicle: _escape_navigator(s, vehicle)
+)
+# Its name while it was a separate method, kept for scripts and records.
 METHODS["mfi-nc"] = replace(
     METHODS["mfi"],
     name="mfi-nc",
     label="MFI (non-convex)",
     colour="darkgoldenrod",
-    in_defaults=False,  # a first stage (docs/nonconvex.md), not yet tuned
-    navigator=lambda s, vehicle: _escape_navigator(s, vehicle),
+    in_defaults=False,
 )
 # The methods flown where none is named.
 DEFAULT_METHODS = tuple(name for name, m in METHODS.items() if m.in_defaults)

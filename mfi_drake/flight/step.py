@@ -198,7 +198,10 @@ class NavigationStep:
             self._switch_mode(x)
         if self._remembers:
             self._remember(x, obstacle, navigator.get_time())
-        F_o = self._evaluate(0, {"state": x, "obstacle": obstacle}, "obstacle_force")
+        inputs = {"state": x, "obstacle": obstacle}
+        if self._remembers:  # eq 21's mode, as the selector's output gives it
+            inputs["goal_mode"] = self._selector.GetOutputPort("mode").Eval(selector)
+        F_o = self._evaluate(0, inputs, "obstacle_force")
         F_n = self._evaluate(1, {"state": x, "obstacle_force": F_o}, "navigation_force")
         setpoint = self._evaluate(
             2, {"navigation_force": F_n, "state": x}, "attitude_setpoint"

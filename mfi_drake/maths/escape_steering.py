@@ -174,14 +174,20 @@ def steering(
     rule: EscapeParams,
     rate: float,
     ground: float | None = None,
+    cruise: bool = True,
 ) -> tuple:
-    """(subgoal ĝ, whether it is not the goal, eq 19's speed setpoint) from
-    the memory and the static scene's readings `scene` (a fleet's other
-    vehicles are not in them: `escape_terms`): v_d at the follow speed
-    while ĝ is not the goal, at most `corner_speed` (gain `rate`,
-    `corner_rate`) in a concave corner outside PASS."""
+    """(subgoal ĝ, whether eq 16–18 are redirected to it, eq 19's speed
+    setpoint) from the memory and the static scene's readings `scene` (a
+    fleet's other vehicles are not in them: `escape_terms`): v_d at the
+    follow speed while ĝ is not the goal, at most `corner_speed` (gain
+    `rate`, `corner_rate`) in a concave corner outside PASS. Only while
+    eq 21 cruises (`cruise`): in its PD mode (eq 20) there is no eq 16–19
+    to redirect or brake, and the difference terms of `redirected` would
+    act alone (a goal in a corner: held 0.5 m short of it)."""
     target, steered = _aim(memory, p, scene, goal, collision_radius, rule, ground)
     v_d = navigator.v_d
+    if not cruise:
+        return target, False, v_d
     if steered:
         v_d = rule.follow_speed
     # Through a door the jambs (and the ground or lintel) within r_b are
@@ -236,6 +242,7 @@ def escape_terms(
     rule: EscapeParams,
     rate: float,
     ground: float | None = None,
+    cruise: bool = True,
 ) -> tuple:
     """(A, B, subgoal ĝ): MFI's obstacle terms (`superposed` of `field`,
     MFI's `obstacle_field`, of parameters `navigator`) over every reading
@@ -243,9 +250,20 @@ def escape_terms(
     subgoal and the corner brake read the static scene `scene` only
     (`steering`): in a fleet the other vehicles, moving, are eq 11–15's to
     turn the vehicle round, not surfaces to follow, corners or door jambs.
-    A lone vehicle passes its readings as both."""
+    A lone vehicle passes its readings as both. `cruise`: eq 21's mode is
+    cruise (`steering`)."""
     target, steered, v_d = steering(
-        memory, p, v, scene, goal, collision_radius, navigator, rule, rate, ground
+        memory,
+        p,
+        v,
+        scene,
+        goal,
+        collision_radius,
+        navigator,
+        rule,
+        rate,
+        ground,
+        cruise,
     )
     A, B = superposed(field, v, obstacle, target - p, collision_radius, navigator)
     return A, redirected(B, v, target, goal, p, steered, v_d, navigator), target
@@ -267,15 +285,27 @@ def relative_escape_terms(
     ground: float | None,
     own_pace: bool,
     blend_speed: float,
+    cruise: bool = True,
 ) -> tuple:
     """(F_o, [A, B], ĝ) of `escape_terms` in a fleet: the field over every
     reading `obstacle` with the velocity relative to each (u, `turns`,
     own_pace, blend_speed: `motion.relative_field`'s), aimed at the
     subgoal of the memory, which with the corner brake reads the static
-    scene `scene` only (`steering`); F_o and B `redirected`."""
+    scene `scene` only (`steering`, in eq 21's cruise mode `cruise`); F_o
+    and B `redirected`."""
     p, v = x[POSITION], x[VELOCITY]
     target, steered, v_d = steering(
-        memory, p, v, scene, goal, collision_radius, navigator, rule, rate, ground
+        memory,
+        p,
+        v,
+        scene,
+        goal,
+        collision_radius,
+        navigator,
+        rule,
+        rate,
+        ground,
+        cruise,
     )
     F_o, terms = relative_field(
         field,

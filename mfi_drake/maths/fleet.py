@@ -10,7 +10,7 @@ functions the single-vehicle systems call, in the order they call them
 import numpy as np
 
 from mfi_drake.maths.escape_steering import escape_terms, relative_escape_terms
-from mfi_drake.maths.fields import next_mode, superposed
+from mfi_drake.maths.fields import MODE_CRUISE, next_mode, superposed
 from mfi_drake.maths.layout import OBSTACLE_COUNT, POSITION, VELOCITY, slices
 from mfi_drake.maths.motion import relative_field, vehicle_readings
 from mfi_drake.maths.quadcopter import attitude_command, mix
@@ -119,6 +119,7 @@ def fleet_chain(
                     rule,
                     rate,
                     ground,
+                    mode == MODE_CRUISE,
                 )
                 F_o, terms = A + B, np.concatenate((A, B))
         else:
@@ -155,6 +156,7 @@ def fleet_chain(
                     ground,
                     own_pace,
                     blend_speed,
+                    mode == MODE_CRUISE,
                 )
         F_gc, F_v, F_pd = attract(mode, p, v, goal, params, F_o, vehicle.mass)
         F_n = F_o + F_gc + F_v + F_pd

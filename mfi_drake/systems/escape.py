@@ -72,12 +72,16 @@ class EscapeNavigator(LeafSystem):
         - scene (optional)
         - obstacle_velocity (optional)
         - vehicle_readings (optional)
+        - goal_mode
         output_ports:
         - obstacle_force
         - obstacle_force_terms
         - escape
 
     "escape": [phase, subgoal (3)] (`escape.TOWARD`, FOLLOW or TRAPPED).
+    "goal_mode": eq 21's mode, the `GoalAttractionSelector`'s output "mode"
+    (a state output: no algebraic loop); the redirection and the corner
+    brake act only in its cruise mode (`escape_steering.steering`).
 
     `scene` (a fleet): the input "scene", the static scene's readings,
     which the memory reads instead of "obstacle". `relative` (a fleet's
@@ -112,9 +116,11 @@ class EscapeNavigator(LeafSystem):
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
         self._memory = self.DeclareDiscreteState(escape.MEMORY_SIZE)
+        self._goal_mode = self.DeclareVectorInputPort("goal_mode", 1)
         tickets = {
             self._state.ticket(),
             self._obstacle.ticket(),
+            self._goal_mode.ticket(),
             self.discrete_state_ticket(self._memory),
         }
         # A fleet's: the static scene (the memory's), the others' velocities.
@@ -196,18 +202,25 @@ class EscapeNavigator(LeafSystem):
         obstacle = self._obstacle.Eval(context)
         scene = self._scene.Eval(context)
         memory = self.memory(context)
+        mode = self._goal_mode.Eval(context)
         moving = ()  # the others' velocities and rule of the road (relative)
         if self._relative is not None:
             keep_right, _, velocity, vehicles = self._relative
             moving = (velocity.Eval(context), keep_right * vehicles.Eval(context))
-        key = b"".join(a.tobytes() for a in (x, obstacle, scene, memory, *moving))
-        return self._last(key, self.terms_of, x, obstacle, memory, scene, *moving)
+        key = b"".join(a.tobytes() for a in (x, obstacle, scene, memory, mode, *moving))
+        cruise = round(mode[0]) == fields.MODE_CRUISE
+        return self._last(
+            key, self.terms_of, x, obstacle, memory, cruise, scene, *moving
+        )
 
-    def terms_of(self, x, obstacle, memory, scene=None, u=None, turns=None) -> tuple:
+    def terms_of(
+        self, x, obstacle, memory, cruise: bool, scene=None, u=None, turns=None
+    ) -> tuple:
         """(F, F_a + redirection, F_o, subgoal) at the state x, readings
-        `obstacle` and `memory`; `scene` (a fleet's static scene, None:
-        `obstacle`) and, with the relative velocity, each reading's u and
-        turn (`escape_steering.relative_escape_terms`)."""
+        `obstacle` and `memory`, in eq 21's cruise mode or not (`cruise`);
+        `scene` (a fleet's static scene, None: `obstacle`) and, with the
+        relative velocity, each reading's u and turn
+        (`escape_steering.relative_escape_terms`)."""
         scene = obstacle if scene is None else scene
         if u is not None:
             F_o, terms, target = escape_steering.relative_escape_terms(
@@ -226,6 +239,7 @@ class EscapeNavigator(LeafSystem):
                 self.ground,
                 self._relative[1],
                 PACE_BLEND_SPEED,
+                cruise,
             )
             return terms[:3], terms[3:], F_o, target
         p, v = position_velocity(x)
@@ -242,5 +256,6 @@ class EscapeNavigator(LeafSystem):
             self.rule,
             self._rate,
             self.ground,
+            cruise,
         )
         return A, B, A + B, target
