@@ -1,5 +1,5 @@
-"""The escape rule and its memory (maths.escape, systems.escape, method
-"mfi-nc"; docs/nonconvex.md)."""
+"""The escape rule and its memory (maths.escape, systems.escape; the
+default "mfi", alias "mfi-nc"; docs/nonconvex.md)."""
 
 import os
 
@@ -223,7 +223,7 @@ def test_the_escape_section_of_a_scenario_is_checked_and_flown():
         parse_scenario(path, [("--set", "escape: {corner_brake: 3}")])
     scenario = parse_scenario(path, [("--set", "escape: {stall_time: 9.0}")])
     vehicle = VEHICLES[scenario.vehicle]
-    navigator = METHODS["mfi-nc"].navigator(scenario, vehicle)
+    navigator = METHODS["mfi"].navigator(scenario, vehicle)
     assert navigator.rule.stall_time == 9.0
     scenario.escape.stall_time = 3.0  # copied at construction
     assert navigator.rule.stall_time == 9.0
@@ -252,7 +252,7 @@ def sealed_box() -> sc.Scenario:
 
 
 # Training worlds (seed 0) of every class, of several sizes and
-# orientations, flown by mfi-nc: each reaches its goal without contact.
+# orientations, flown by the default mfi: each reaches its goal without contact.
 WORLDS = [
     ("room_exit", 0),  # MFI meets the corner of two walls and the floor
     ("cup", 0),
@@ -283,9 +283,9 @@ def test_mfi_nc_reaches_the_goal_the_first_stage_lost(kind, seed, index):
 
 
 def reaches(kind: str, seed: int, index: int) -> None:
-    """mfi-nc reaches the goal of the world without contact in time."""
+    """The default mfi reaches the goal of the world without contact in time."""
     world = nonconvex_world(kind, seed, index)
-    metrics = simulate(world, "mfi-nc", until_settled=True).metrics
+    metrics = simulate(world, "mfi", until_settled=True).metrics
     assert metrics["outcome"] == "success", metrics["final_error"]
     assert metrics["min_clearance"] > 0.0
     assert metrics["convergence_time"] < world.duration
@@ -296,7 +296,7 @@ def test_two_flights_are_equal():
     flight twice is the same log, bit for bit, escape included."""
     world = nonconvex_world("cup", 0, 0)
     world.duration = 35.0
-    first, second = simulate(world, "mfi-nc"), simulate(world, "mfi-nc")
+    first, second = simulate(world, "mfi"), simulate(world, "mfi")
     assert np.array_equal(first.log["state"], second.log["state"])
     assert np.array_equal(first.times, second.times)
 
@@ -310,7 +310,7 @@ def test_mfi_nc_flies_with_the_depth_camera_rig(kind, index):
     rig3 = read_override(os.path.join(SCENARIOS, "sensors", "rig3.yaml"))
     world = layer(nonconvex_world(kind, 0, index), rig3[1], rig3[0])
     assert isinstance(world.sensor, sc.DepthCameraRig)
-    metrics = simulate(world, "mfi-nc", until_settled=True).metrics
+    metrics = simulate(world, "mfi", until_settled=True).metrics
     assert metrics["outcome"] == "success", metrics["final_error"]
     assert metrics["min_clearance"] > 0.0
     assert metrics["convergence_time"] < world.duration

@@ -39,7 +39,7 @@ def flown(name: str, engine: str):
     world = dataclasses.replace(WORLDS[name][0], engine=engine, duration=150.0)
     if name != "sealed":
         world = dataclasses.replace(world, duration=60.0)
-    return simulate(world, "mfi-nc")
+    return simulate(world, "mfi")
 
 
 @pytest.mark.parametrize("name", list(WORLDS))

@@ -98,7 +98,7 @@ def test_mfi_nc_passes_a_narrow_door_met_side_on(width, yaw_deg):
     rounds the corner and meets the door side-on: it detects the door and
     passes it, reaching the goal without contact within 40 s."""
     world = side_door_room(width, yaw_deg)
-    metrics = simulate(world, "mfi-nc", until_settled=True).metrics
+    metrics = simulate(world, "mfi", until_settled=True).metrics
     assert metrics["outcome"] == "success", metrics["final_error"]
     assert metrics["min_clearance"] > 0.0
 

@@ -40,7 +40,7 @@ RADIUS = VEHICLE.collision_radius
 
 def room_fleet(integration: str):
     """Two vehicles in the room of "room_exit" (seed 0, world 1), 1.2 m
-    apart, their goals outside beyond the door: "mfi" (no escape rule) times out there
+    apart, their goals outside beyond the door: "mfi-memoryless" times out there
     (measured: neither reaches its goal in 90 s, one integrator)."""
     world = nonconvex_world("room_exit", 0, 1, duration=90.0)
     start = [world.start[0], world.start[1] + 1.2, world.start[2]]
@@ -126,7 +126,7 @@ def test_two_vehicles_leave_a_room_by_its_door_without_contact(integration):
     compiled engine (one integrator) and the systems engine (exchange).
     Measured: success at 55.9 s (one) and 67.0 s (exchange); min
     separation 0.23 and 0.20 m."""
-    metrics = simulate(room_fleet(integration), "mfi-nc", until_settled=True).metrics
+    metrics = simulate(room_fleet(integration), "mfi", until_settled=True).metrics
     assert metrics["outcome"] == "success"
     assert metrics["min_separation"] > 0.0
     for vehicle in metrics["vehicles"]:
@@ -243,11 +243,11 @@ def test_a_trapped_vehicle_ends_a_compiled_fleet_and_is_named():
 def test_the_swarms_fly_as_mfi_flies_them(name, integration):
     """In the shipped swarms nothing traps and no corner of the scene (the
     ground alone) brakes: the rule leaves MFI's relative field as it is,
-    so mfi-nc flies mfi's flight to the last bit on both engines."""
+    so mfi flies mfi-memoryless's flight to the last bit on both engines."""
     scene = dataclasses.replace(
         load_scenario(f"{SCENARIOS}/{name}.yaml"), fleet_integration=integration
     )
-    want, got = simulate(scene, "mfi"), simulate(scene, "mfi-nc")
+    want, got = simulate(scene, "mfi-memoryless"), simulate(scene, "mfi")
     assert got.metrics["outcome"] == want.metrics["outcome"] == "success"
     for a, b in zip([want, *want.others], [got, *got.others], strict=True):
         np.testing.assert_array_equal(b.times, a.times)

@@ -95,17 +95,17 @@ def test_the_step_equals_the_logged_diagram_at_the_logged_inputs(scene, method):
 
 
 def test_the_step_carries_the_escape_memory_as_the_diagram_does():
-    """mfi-nc out of a cup (TOWARD, FOLLOW, PASS). Oracle: the diagram's
+    """The default mfi out of a cup (TOWARD, FOLLOW, PASS). Oracle: the diagram's
     log. Its row k holds the outputs at the state x_k with the memory as it
     was before the update at t_k (the logger publishes at the end of the
     step before): where the update changes the phase, the logged force is
     the navigator's at the previous call's memory, and the step's, the one
     flown from t_k on, follows in row k + 1; elsewhere they are equal."""
     world = nonconvex_world("cup", 0, 0, duration=40.0)
-    flight = simulate(dataclasses.replace(world, engine="compiled"), "mfi-nc")
+    flight = simulate(dataclasses.replace(world, engine="compiled"), "mfi")
     assert flight.metrics["outcome"] == "success"
     log, times = flight.log, flight.times
-    step = NavigationStep.from_scenario(world, "mfi-nc")
+    step = NavigationStep.from_scenario(world, "mfi")
     assert step.memory is None  # before the first call
     navigator = step._chain[0]
     changed, mismatched, phases, before = [], [], set(), None

@@ -27,8 +27,8 @@ def engine_of(methods, overrides=(), faults=None, world="random") -> str:
 
 def test_compiled_where_every_method_flies_on_it():
     assert engine_of(EVERY) == "compiled"
-    assert engine_of(["mfi"], world="cup") == "compiled"  # the ground, boxes
-    assert engine_of(["mfi", "mfi-nc"], world="cup") == "compiled"  # the escape
+    assert engine_of(["mfi"], world="cup") == "compiled"  # the escape rule
+    assert engine_of(["mfi-memoryless"], world="cup") == "compiled"
 
 
 @pytest.mark.parametrize(
@@ -46,9 +46,9 @@ def test_a_layer_or_what_it_asks_for_decides(overrides, faults, engine):
 
 
 def test_the_records_name_the_engine_that_flew(tmp_path):
-    """A sweep of MFI and mfi-nc flies on the compiled engine, one with
+    """A sweep of MFI with and without memory flies on the compiled engine, one with
     `engine: systems` on the systems; each record says which."""
-    for methods, engine in (("mfi,mfi-nc", "compiled"), ("mfi", "systems")):
+    for methods, engine in (("mfi,mfi-memoryless", "compiled"), ("mfi", "systems")):
         out = tmp_path / methods
         args = ["sweep", "--n", "1", "--seed", "3", "--methods", methods]
         args += ["--set", "duration: 3", "--workers", "1", "--out", str(out)]

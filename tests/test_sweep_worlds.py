@@ -89,9 +89,9 @@ def test_the_comparison_page_tabulates_a_world_sweep_by_class(tmp_path):
     the published table counts them class by class."""
     publish = load_benchmark("publish")
     config = sweep.SweepConfig(
-        n=2, seed=4343, methods=["mfi", "mfi-nc"], world=sweep.NONCONVEX
+        n=2, seed=4343, methods=["mfi", "mfi-memoryless"], world=sweep.NONCONVEX
     )
-    ends = {"mfi": ("timeout", "collision"), "mfi-nc": ("success", "trapped")}
+    ends = {"mfi": ("success", "trapped"), "mfi-memoryless": ("timeout", "collision")}
     records = []
     for key in config.flight_keys():
         end = ends[key.method][key.index]
@@ -109,14 +109,14 @@ def test_the_comparison_page_tabulates_a_world_sweep_by_class(tmp_path):
     six = " / ".join  # a cell: the six classes
     assert rows[0].startswith(f"| seed 4343, 2 worlds a class | success {six(KINDS)} |")
     assert rows[2] == (
-        f"| MFI | {six(['0.000'] * 6)} | {six('1' * 6)} | {six('1' * 6)} "
-        f"| {six('0' * 6)} | {six(['–'] * 6)} | – |"
+        f"| MFI | {six(['0.500'] * 6)} | {six('0' * 6)} | {six('0' * 6)} "
+        f"| {six('1' * 6)} | {six(['1.250'] * 6)} | 30.0 |"
     )
     assert rows[3] == (
-        f"| MFI (non-convex) | {six(['0.500'] * 6)} | {six('0' * 6)} | {six('0' * 6)} "
-        f"| {six('1' * 6)} | {six(['1.250'] * 6)} | 30.0 |"
+        f"| MFI (memoryless) | {six(['0.000'] * 6)} | {six('1' * 6)} | {six('1' * 6)} "
+        f"| {six('0' * 6)} | {six(['–'] * 6)} | – |"
     )
     # The sweep's own table: a row a method and class, trapped included.
     table = sweep.summary_table(summary)
-    assert "| mfi-nc | cave | 2 | 0.50 [0.09, 0.91] | 0.00 [0.00, 0.66] " in table
+    assert "| mfi | cave | 2 | 0.50 [0.09, 0.91] | 0.00 [0.00, 0.66] " in table
     assert "| 0.50 [0.09, 0.91] | 1.250 [1.250, 1.250] |" in table

@@ -1,6 +1,7 @@
 """Outcome "trapped" (docs/nonconvex.md): a goal nothing can reach ends a
-flight of mfi-nc when its escape rule has run out of options, well before
-the time limit; MFI, which has no such rule, flies to the limit."""
+flight of the default mfi when its escape rule has run out of options, well
+before the time limit; mfi-memoryless, which has no such rule, flies to the
+limit."""
 
 import dataclasses
 import json
@@ -24,17 +25,17 @@ def test_a_sealed_box_ends_trapped_and_run_says_so(tmp_path, capsys):
     out = str(tmp_path / "out")
     # On the compiled engine (the same flights as the systems engine's,
     # tests/test_escape_compiled.py), in a quarter of the CPU.
-    run = ["run", str(path), "--method", "mfi-nc", "--json", "--out", out]
+    run = ["run", str(path), "--json", "--out", out]  # the default mfi
     run += ["--set", "engine: compiled"]
     assert main(run) == 1  # not a success
     metrics = json.loads(capsys.readouterr().out)
     assert metrics["outcome"] == "trapped" and metrics["trapped"] is True
     assert metrics["sim_time"] < 0.85 * box.duration  # ended by the rule
     assert metrics["min_clearance"] > 0.0 and not metrics["reached"]
-    # The same goal with MFI, which has no rule: its flight ends at its
-    # limit, a timeout (30 s: MFI dithers in the box).
+    # The same goal without the rule: its flight ends at its limit, a
+    # timeout (30 s: MFI dithers in the box).
     limit = dataclasses.replace(box, duration=30.0, engine="compiled")
-    mfi = simulate(limit, "mfi", **SWEEP_ENDS).metrics
+    mfi = simulate(limit, "mfi-memoryless", **SWEEP_ENDS).metrics
     assert outcome(mfi) == mfi["outcome"] == "timeout" and "trapped" not in mfi
     assert mfi["sim_time"] == limit.duration
 
