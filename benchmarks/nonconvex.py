@@ -1,7 +1,7 @@
 """Every method on the non-convex worlds (docs/nonconvex.md).
 
     python benchmarks/nonconvex.py [--seed 0] [--count 3] [--world nonconvex]
-        [--methods mfi,mfi-nc,...] [--workers 1] [--out out/nonconvex_s0]
+        [--methods mfi,mfi-memoryless,...] [--workers 1] [--out out/nonconvex_s0]
 
 Flies worlds 0..count−1 of seed `seed` of every class of
 `world.nonconvex.KINDS` (or of the one class --world names) with every
@@ -13,8 +13,9 @@ docs/nonconvex.md: per class and method, success / collision / timeout
     python benchmarks/nonconvex.py --cost 3
 
 The memory's cost: random fields 0..2 of seed 0 at density 0.1 (convex,
-where mfi-nc never traps, so its flights are MFI's step for step), each
-flown by "mfi" and "mfi-nc"; prints the CPU µs per integrator step of each
+where the escape rule never traps, so its flights are the memoryless MFI's
+step for step but where the corner brake acts), each flown by
+"mfi-memoryless" and "mfi"; prints the CPU µs per integrator step of each
 and whether the two logs are equal.
 """
 
@@ -54,11 +55,11 @@ def table(summary: dict) -> str:
 
 def memory_cost(count: int) -> None:
     """See the module docstring (--cost)."""
-    print("| field | mfi µs/step | mfi-nc µs/step | steps | same flight |")
+    print("| field | mfi-memoryless µs/step | mfi µs/step | steps | same flight |")
     print("|---|---|---|---|---|")
     for index in range(count):
         world = random_field(0, index, 0.1)
-        a, b = (simulate(world, m, **SWEEP_ENDS) for m in ("mfi", "mfi-nc"))
+        a, b = (simulate(world, m, **SWEEP_ENDS) for m in ("mfi-memoryless", "mfi"))
         same = (
             a.times.shape == b.times.shape and (a.log["state"] == b.log["state"]).all()
         )
@@ -75,7 +76,9 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--count", type=int, default=3)
     parser.add_argument("--world", default=NONCONVEX, choices=WORLDS[1:])
-    parser.add_argument("--methods", default=",".join([*DEFAULT_METHODS, "mfi-nc"]))
+    parser.add_argument(
+        "--methods", default=",".join([*DEFAULT_METHODS, "mfi-memoryless"])
+    )
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", default="out/nonconvex_s0")
     parser.add_argument("--cost", type=int, default=0, help="see the docstring")

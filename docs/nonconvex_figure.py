@@ -1,9 +1,9 @@
 """docs/nonconvex.md's picture: a top view of one world of each class of
-`world.nonconvex`, with MFI's and mfi-nc's paths.
+`world.nonconvex`, with the paths of MFI with and without its escape rule.
 
     python docs/nonconvex_figure.py [--index 0] [--out docs/figures/nonconvex.png]
 
-World `index` of seed 0 of every class, flown by "mfi" and "mfi-nc" as a
+World `index` of seed 0 of every class, flown by "mfi-memoryless" and "mfi" as a
 sweep ends a flight (at rest at the goal, or at contact). Each panel is a
 section at the flight height: the footprint of every obstacle that spans
 the start's height (ceilings and lintels, which would hide the rooms, are
@@ -24,7 +24,7 @@ from mfi_drake.studies.sweep import SWEEP_ENDS
 from mfi_drake.world.nonconvex import KINDS, nonconvex_world
 from mfi_drake.world.obstacles import obstacle_triangles
 
-METHODS = ("mfi", "mfi-nc")
+METHODS = ("mfi-memoryless", "mfi")
 
 
 def section(world):
