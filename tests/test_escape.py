@@ -1,6 +1,7 @@
 """The escape rule and its memory (maths.escape, systems.escape; the
 default "mfi", alias "mfi-nc"; docs/nonconvex.md)."""
 
+import dataclasses
 import os
 
 import numpy as np
@@ -302,7 +303,7 @@ def test_two_flights_are_equal():
 
 
 @pytest.mark.parametrize(("kind", "index"), [("cup", 0), ("room_entry", 1)])
-def test_mfi_nc_flies_with_the_depth_camera_rig(kind, index):
+def test_the_rule_flies_with_the_depth_camera_rig_where_asked(kind, index):
     """The escape reads the "obstacle" readings whatever sensor makes them:
     with the rig of three depth cameras (scenarios/sensors/rig3.yaml) they
     come from the rig's own memory of points, which holds a surface out of
@@ -310,6 +311,10 @@ def test_mfi_nc_flies_with_the_depth_camera_rig(kind, index):
     rig3 = read_override(os.path.join(SCENARIOS, "sensors", "rig3.yaml"))
     world = layer(nonconvex_world(kind, 0, index), rig3[1], rig3[0])
     assert isinstance(world.sensor, sc.DepthCameraRig)
+    # Asked for: with cameras MFI flies memoryless by default (`escape_off`).
+    world = dataclasses.replace(
+        world, escape=dataclasses.replace(world.escape, cameras=True)
+    )
     metrics = simulate(world, "mfi", until_settled=True).metrics
     assert metrics["outcome"] == "success", metrics["final_error"]
     assert metrics["min_clearance"] > 0.0

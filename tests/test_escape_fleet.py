@@ -258,6 +258,7 @@ def test_the_swarms_fly_as_mfi_flies_them(name, integration):
     "scene, change, why",
     [
         ("swarm_corridor", "sensor: !DepthCamera {}", "a fleet with cameras"),
+        ("planar_wall", "sensor: !DepthCamera {}", "cameras (escape.cameras: false)"),
         (
             "moving_crossing",
             "other_vehicles: [{start: [0, 3, 2], goal: [9, 3, 2]}]",

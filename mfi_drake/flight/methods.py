@@ -162,12 +162,18 @@ def escape_off(s: Scenario) -> str | None:
     flies with it. The memory remembers static surfaces (hit points, the
     followed surface, a door's jambs): among moving obstacles there is no
     static scene to tell from the readings, nor in a fleet whose cameras
-    render the other vehicles into the scene's depth images. There MFI
-    flies memoryless, as `mfi-memoryless` does (docs/nonconvex.md)."""
+    render the other vehicles into the scene's depth images. With depth
+    cameras the rule follows surfaces beside and below the vehicle that no
+    camera may see (a held-out field's contact, a room's floor): only where
+    the scenario asks (`escape.cameras`). Elsewhere MFI flies memoryless,
+    as `mfi-memoryless` does (docs/nonconvex.md)."""
     if obstacles_move(s):
         return "obstacles move"
-    if s.other_vehicles and not isinstance(s.sensor, SphereSensor):
-        return "a fleet with cameras"
+    if not isinstance(s.sensor, SphereSensor):
+        if s.other_vehicles:
+            return "a fleet with cameras"
+        if not s.escape.cameras:
+            return "cameras (escape.cameras: false)"
     return None
 
 
@@ -200,7 +206,7 @@ METHODS["mfi-memoryless"] = replace(
     METHODS["mfi"],
     name="mfi-memoryless",
     label="MFI (memoryless)",
-    colour="slateblue",
+    colour="tab:gray",
     in_defaults=False,
 )
 # The default MFI: the escape rule and its memory in non-convex worlds

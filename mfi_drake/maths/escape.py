@@ -141,6 +141,9 @@ class EscapeParams:
     loop_radius: float = 1.0  # m, back this near H: a loop is closed
     revisit_radius: float = 1.5  # m, a trap this near a hit point resumes it
     corner_brake: bool = True  # eq 19's v_d limited in a concave corner
+    # With depth cameras too (off: MFI flies memoryless there, `escape_off`):
+    # the rule follows surfaces beside and below that no camera may see.
+    cameras: bool = False
 
 
 def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
