@@ -216,6 +216,38 @@ def test_corner_speed_by_hand():
     assert escape_steering.corner_speed(far, v, RADIUS, r_b, rate) == np.inf
 
 
+def test_a_passable_gap_is_no_corner():
+    """Normals 120° apart (beyond CORNER_COSINE, within GAP_COSINE): two
+    surfaces whose closest points lie 2R + GAP_MARGIN or more apart leave a
+    gap the vehicle passes (no limit); nearer together they are a corner.
+    Normals 95° apart are a corner however far apart the points lie (a
+    room's walls seen from its middle)."""
+    rate, r_b = 0.25, 0.6
+    v = np.array([1.0, 0.0, 0.0])
+    passable = 2 * RADIUS + escape.GAP_MARGIN
+
+    def pair(angle_deg, distance):
+        half = np.radians(angle_deg / 2)
+        side = np.array([np.cos(half), np.sin(half), 0.0]) * distance
+        return obstacle_signal([side, side * [1.0, -1.0, 1.0]])
+
+    def apart(angle_deg, distance):
+        return 2 * distance * np.sin(np.radians(angle_deg / 2))
+
+    # 120°: closest points apart = √3 · distance.
+    wide = passable / np.sqrt(3.0) + 0.02
+    assert apart(120, wide) > passable
+    assert escape_steering.corner_speed(pair(120, wide), v, RADIUS, r_b, rate) == np.inf
+    narrow = passable / np.sqrt(3.0) - 0.02
+    assert escape_steering.corner_speed(
+        pair(120, narrow), v, RADIUS, r_b, rate
+    ) == pytest.approx(rate * (narrow - RADIUS) / np.cos(np.radians(60)))
+    assert apart(95, 0.8) > passable
+    assert escape_steering.corner_speed(
+        pair(95, 0.8), v, RADIUS, r_b, rate
+    ) == pytest.approx(rate * (0.8 - RADIUS) / np.cos(np.radians(47.5)))
+
+
 def test_the_escape_section_of_a_scenario_is_checked_and_flown():
     path = os.path.join(SCENARIOS, "planar_wall.yaml")
     with pytest.raises(sc.ScenarioError, match=r"escape\.stall_time = -1.0"):

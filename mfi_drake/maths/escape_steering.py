@@ -31,6 +31,7 @@ from mfi_drake.maths.escape import (
     DOOR_AXIS,
     FOLLOW,
     GAP_COSINE,
+    GAP_MARGIN,
     PASS,
     PASS_AHEAD,
     PHASE,
@@ -48,6 +49,11 @@ from mfi_drake.maths.fields import (
 )
 from mfi_drake.maths.layout import POSITION, VELOCITY, readings
 from mfi_drake.maths.motion import relative_field
+
+# Two seen surfaces whose normals are at most ~100° apart meet in a corner
+# (a room's walls, a wall and the floor: 90°); between that and GAP_COSINE
+# only where the vehicle cannot pass between them (`corner_speed`).
+CORNER_COSINE = -0.17
 
 
 def corner_rate(k: float, v_d: float, r_b: float) -> float:
@@ -78,19 +84,29 @@ def corner_speed(
     MFI's obstacle terms (eq 12, 14) are ⟂ v: they turn, they do not brake.
     Against one surface a turn of at most 90° leaves it, but in a concave
     corner (two or more seen surfaces within eq 15's range r_b, their
-    normals not opposed: `GAP_COSINE`) every tangent of one surface leads
-    into another, and in the corner of two walls and a floor none is left:
-    the vehicle must stop and turn back, and eq 19 is the only brake."""
+    normals at most `CORNER_COSINE` apart, or not opposed (`GAP_COSINE`)
+    with closest points less than 2R + `GAP_MARGIN` apart) every tangent of
+    one surface leads into another, and in the corner of two walls and a
+    floor none is left: the vehicle must stop and turn back, and eq 19 is
+    the only brake."""
     seen = [
         r_o
         for r_o, s in readings(obstacle)
         if s > 0.5 and _norm(r_o) - collision_radius < r_b
     ]
     normals = [r_o / _norm(r_o) for r_o in seen]
+    # Two spheres with a passable gap between them are no corner: braking
+    # there only sent the vehicle round another side (longer paths).
+    passable = 2.0 * collision_radius + GAP_MARGIN
     corner = False
     for i in range(len(normals)):
         for j in range(i):
-            corner = corner or normals[i] @ normals[j] > GAP_COSINE
+            cosine = normals[i] @ normals[j]
+            corner = corner or (
+                cosine > CORNER_COSINE
+                or cosine > GAP_COSINE
+                and _norm(seen[i] - seen[j]) < passable
+            )
     speed = float(_norm(v))
     if not corner or speed < 1e-9:
         return math.inf
