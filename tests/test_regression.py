@@ -35,7 +35,6 @@ import pytest
 
 from mfi_drake import load_scenario
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.flight.fleet import unsupported
 from mfi_drake.flight.result import Flight
 from mfi_drake.studies.compare import compare
 
@@ -83,8 +82,6 @@ def test_paper_scenario_metrics_are_unchanged(name, method):
             assert got[key] == pytest.approx(want, rel=0.01), key
         else:
             assert got[key] == want, key
-    if unsupported(recorded_scenario(name, "compiled"), method):
-        return  # faults: the compiled engine flies none
     # The compiled engine flies the same flight (issue 40's equality), bit
     # for bit as measured (the same steps, positions equal).
     (flown_compiled,) = compare(recorded_scenario(name, "compiled"), [method])

@@ -37,7 +37,7 @@ def test_compiled_where_every_method_flies_on_it():
         ([("--set", "engine: systems")], None, "systems"),  # a layer names it
         ([("--set", "engine: compiled")], None, "compiled"),
         ([("--set", "duration: 5")], None, "compiled"),  # a layer that does not
-        ([], Faults(sensor_noise_std=0.05), "systems"),  # faults are not compiled
+        ([], Faults(sensor_noise_std=0.05), "compiled"),  # a lone vehicle's faults
         ([("--set", "sensor: !DepthCamera {}")], None, "systems"),
     ],
 )

@@ -20,7 +20,10 @@ compiled engine (`flies_compiled`), the same chain as the card's diagram of
 LeafSystems (`engine: systems`, `flight.diagram`) in one system. Among
 moving obstacles (a lone vehicle only) it has that diagram's
 `ObstacleMotion` and `ObstacleVelocityEstimator`, whose estimate reaches
-FleetChain's "obstacle_velocity" (docs/dynamic.md).
+FleetChain's "obstacle_velocity" (docs/dynamic.md). With faults (a lone
+vehicle only) it has that diagram's `systems.faults` systems: the chain
+reads the state estimate and the faulted readings, the plant the faulted
+rotors, and `TrueRows` puts the truth back in the log (docs/robustness.md).
 """
 
 import dataclasses
@@ -42,7 +45,14 @@ from mfi_drake.maths import baselines, fields
 from mfi_drake.maths.layout import ROTORS, STATE_SIZE
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.escape import EscapeNavigator
-from mfi_drake.systems.fleet import FleetChain
+from mfi_drake.systems.faults import (
+    add_rotor_faults,
+    add_sensor_faults,
+    add_state_estimate,
+    estimate_faulted,
+    readings_faulted,
+)
+from mfi_drake.systems.fleet import FleetChain, TrueRows
 from mfi_drake.systems.navigation import (
     GoalAttractionSelector,
     ObstacleNavigator,
@@ -74,8 +84,9 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     sentence naming the field or method), or None where it can: MFI's field
     and eq 21 selector (mfi, mfi-paper; mfi-nc's escape rule, a memory a
     vehicle), or APF's or GF's field and attraction; the sphere sensor,
-    moving obstacles only for a lone vehicle without the escape rule, no
-    faults, no point-cloud map; a fleet with the relative velocity."""
+    moving obstacles only for a lone vehicle without the escape rule,
+    faults for a lone vehicle, no point-cloud map; a fleet with the
+    relative velocity."""
     method = resolve_method(method)
     navigator, selector = method_systems(scenario, method)
     mfi = (
@@ -101,8 +112,8 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
             f"obstacles: the compiled chain flies no moving obstacle in {who} "
             "(a lone vehicle with mfi, mfi-paper, apf or gf only)"
         )
-    if scenario.faults != Faults():
-        return "faults: the compiled chain flies none"
+    if scenario.faults != Faults() and scenario.other_vehicles:
+        return "faults: the compiled chain flies them for a lone vehicle only"
     if scenario.map_points:
         return "world: the compiled chain flies no point-cloud map"
     if scenario.other_vehicles and not scenario.relative_velocity.enabled:
@@ -206,7 +217,12 @@ class OneIntegratorFleet:
                 relative,
             ),
         )
-        builder.Connect(states.get_output_port(0), chain.GetInputPort("states"))
+        # Faults (a lone vehicle's, `unsupported`): the chain reads the state
+        # estimate and the faulted readings, the plant the faulted rotors,
+        # as the card's diagram does (`flight.chain.connect_controller`).
+        faults = scenario.faults
+        estimate_port = add_state_estimate(builder, faults, states.get_output_port(0))
+        builder.Connect(estimate_port, chain.GetInputPort("states"))
         self.scene_sensor = None
         if scene:
             self.scene_sensor = builder.AddNamedSystem(
@@ -220,9 +236,10 @@ class OneIntegratorFleet:
             builder.Connect(
                 states.get_output_port(0), self.scene_sensor.GetInputPort("states")
             )
-            builder.Connect(
-                self.scene_sensor.GetOutputPort("scene"), chain.GetInputPort("scene")
+            sensed = add_sensor_faults(
+                builder, faults, self.scene_sensor.GetOutputPort("scene")
             )
+            builder.Connect(sensed, chain.GetInputPort("scene"))
         if relative:
             estimator = builder.AddNamedSystem(
                 "velocity_estimator",
@@ -230,23 +247,37 @@ class OneIntegratorFleet:
                     estimate.rate_hz, estimate.time_constant, estimate.gate
                 ),
             )
-            builder.Connect(states.get_output_port(0), estimator.GetInputPort("state"))
-            builder.Connect(
-                self.scene_sensor.GetOutputPort("scene"),
-                estimator.GetInputPort("obstacle"),
-            )
+            builder.Connect(estimate_port, estimator.GetInputPort("state"))
+            builder.Connect(sensed, estimator.GetInputPort("obstacle"))
             builder.Connect(
                 estimator.GetOutputPort("obstacle_velocity"),
                 chain.GetInputPort("obstacle_velocity"),
             )
         rotors = builder.AddNamedSystem("rotors", Demultiplexer(ROTORS * n, ROTORS))
-        builder.Connect(chain.GetOutputPort("rotor_forces"), rotors.get_input_port(0))
+        builder.Connect(
+            add_rotor_faults(
+                builder,
+                faults,
+                self.vehicle.hover_command,
+                chain.GetOutputPort("rotor_forces"),
+            ),
+            rotors.get_input_port(0),
+        )
         for k, plant in enumerate(self.plants):
             builder.Connect(rotors.get_output_port(k), plant.get_input_port(0))
+        rows = chain.GetOutputPort("rows")
+        if estimate_faulted(faults) or (scene and readings_faulted(faults)):
+            truth = builder.AddNamedSystem("true_rows", TrueRows(scene))
+            builder.Connect(rows, truth.GetInputPort("rows"))
+            builder.Connect(states.get_output_port(0), truth.GetInputPort("states"))
+            if scene:
+                builder.Connect(
+                    self.scene_sensor.GetOutputPort("scene"),
+                    truth.GetInputPort("scene"),
+                )
+            rows = truth.GetOutputPort("rows")
         # publish_period 0: the sink records once per integrator step.
-        self.logger = LogVectorOutput(
-            chain.GetOutputPort("rows"), builder, publish_period=0.0
-        )
+        self.logger = LogVectorOutput(rows, builder, publish_period=0.0)
         self.logger.set_name("logger")
         self.chain, self.states = chain, states
         self.diagram = builder.Build()

@@ -206,10 +206,25 @@ MotorLag = MotorLag_[None]
 
 
 # --- insertion into the diagram ----------------------------------------------
+def estimate_faulted(faults: Faults) -> bool:
+    """Whether `faults` make the state estimate differ from the state."""
+    return faults.position_noise_std != 0.0 or faults.velocity_noise_std != 0.0
+
+
+def readings_faulted(faults: Faults) -> bool:
+    """Whether `faults` make the navigator's readings differ from the
+    sensor's (noise, dropouts or latency)."""
+    return (
+        faults.sensor_noise_std != 0.0
+        or faults.dropout_prob != 0.0
+        or delay_samples(faults) != 0
+    )
+
+
 def add_state_estimate(builder: DiagramBuilder, faults: Faults, state_port):
     """The port the controller reads the state from: `state_port` itself, or
     a StateEstimateError's output when position or velocity noise is on."""
-    if faults.position_noise_std == 0.0 and faults.velocity_noise_std == 0.0:
+    if not estimate_faulted(faults):
         return state_port
     system = builder.AddNamedSystem("state_estimate", StateEstimateError(faults))
     builder.Connect(state_port, system.get_input_port(0))
@@ -219,11 +234,7 @@ def add_state_estimate(builder: DiagramBuilder, faults: Faults, state_port):
 def add_sensor_faults(builder: DiagramBuilder, faults: Faults, obstacle_port):
     """The port the navigator reads the obstacle from: `obstacle_port`
     itself, or a SensorFaults' output when noise, dropouts or latency is on."""
-    if (
-        faults.sensor_noise_std == 0.0
-        and faults.dropout_prob == 0.0
-        and delay_samples(faults) == 0
-    ):
+    if not readings_faulted(faults):
         return obstacle_port
     system = builder.AddNamedSystem(
         "sensor_faults", SensorFaults(faults, obstacle_port.size())

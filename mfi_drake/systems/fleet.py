@@ -334,3 +334,39 @@ class FleetChain(LeafSystem):
             rows,
         )
         return rows, rows[:, self._forces].ravel()
+
+
+class TrueRows(LeafSystem):
+    """A lone vehicle's "rows" with the true state and readings in place of
+    what its faults made of them (the compiled engine with faults: the
+    chain reads the state estimate and the faulted readings, the log keeps
+    the truth, as the card's diagram logs the plant's state and the
+    sensor's output).
+
+    .. pydrake_system::
+
+        name: TrueRows
+        input_ports:
+        - rows
+        - states
+        - scene (optional)
+        output_ports:
+        - rows
+    """
+
+    def __init__(self, scene: bool):
+        super().__init__()
+        self._rows = self.DeclareVectorInputPort("rows", fleet.ROW_SIZE)
+        self._states = self.DeclareVectorInputPort("states", STATE_SIZE)
+        self._scene = None
+        if scene:
+            self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE)
+        self._slices = fleet.row_slices()
+        self.DeclareVectorOutputPort("rows", fleet.ROW_SIZE, self._calc)
+
+    def _calc(self, context, output) -> None:
+        row = np.array(self._rows.Eval(context))
+        row[self._slices["state"]] = self._states.Eval(context)
+        if self._scene is not None:
+            row[self._slices["obstacle"]] = self._scene.Eval(context)
+        output.SetFromVector(row)
