@@ -18,9 +18,11 @@ Simulator a vehicle exchanging states at `exchange_hz`, is
 A lone vehicle with `engine: compiled` is this diagram with N = 1: the
 compiled engine (`flies_compiled`), the same chain as the card's diagram of
 LeafSystems (`engine: systems`, `flight.diagram`) in one system. Among
-moving obstacles (a lone vehicle only) it has that diagram's
+moving obstacles it has that diagram's
 `ObstacleMotion` and `ObstacleVelocityEstimator`, whose estimate reaches
-FleetChain's "obstacle_velocity" (docs/dynamic.md). With faults (a lone
+FleetChain's "obstacle_velocity"; in a fleet one estimator a vehicle, of
+its readings of the scene (`add_velocity_estimators`; the others' velocities
+the chain knows, `maths.motion.vehicle_readings`). With faults (a lone
 vehicle only) it has that diagram's `systems.faults` systems: the chain
 reads the state estimate and the faulted readings, the plant the faulted
 rotors, and `TrueRows` puts the truth back in the log (docs/robustness.md).
@@ -29,20 +31,21 @@ rotors, and `TrueRows` puts the truth back in the log (docs/robustness.md).
 import dataclasses
 
 from pydrake.geometry import SceneGraph
-from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import (
     Demultiplexer,
     LogVectorOutput,
     Multiplexer,
 )
 
+from mfi_drake.config.dynamic import RelativeVelocity
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths import baselines, fields
-from mfi_drake.maths.layout import ROTORS, STATE_SIZE
+from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.faults import (
@@ -58,9 +61,11 @@ from mfi_drake.systems.navigation import (
     ObstacleNavigator,
     PotentialGoalAttraction,
 )
-from mfi_drake.systems.relative import ObstacleVelocityEstimator
+from mfi_drake.systems.relative import (
+    VELOCITY_SIGNAL_SIZE,
+    ObstacleVelocityEstimator,
+)
 from mfi_drake.systems.sensors import FleetSceneSensor
-from mfi_drake.world.motion import obstacles_move
 
 
 def flies_compiled(scenario: Scenario) -> bool:
@@ -84,8 +89,8 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     sentence naming the field or method), or None where it can: MFI's field
     and eq 21 selector (mfi, mfi-paper; mfi-nc's escape rule, a memory a
     vehicle), or APF's or GF's field and attraction; the sphere sensor,
-    moving obstacles only for a lone vehicle without the escape rule,
-    faults for a lone vehicle, no point-cloud map; a fleet with the
+    moving obstacles (where `methods.escape_off` turns the escape rule
+    off), faults for a lone vehicle, no point-cloud map; a fleet with the
     relative velocity."""
     method = resolve_method(method)
     navigator, selector = method_systems(scenario, method)
@@ -106,12 +111,6 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         )
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
-    if obstacles_move(scenario) and (scenario.other_vehicles or escape):
-        who = "a fleet" if scenario.other_vehicles else f"method {method.name}"
-        return (
-            f"obstacles: the compiled chain flies no moving obstacle in {who} "
-            "(a lone vehicle with mfi, mfi-paper, apf or gf only)"
-        )
     if scenario.faults != Faults() and scenario.other_vehicles:
         return "faults: the compiled chain flies them for a lone vehicle only"
     if scenario.map_points:
@@ -166,6 +165,48 @@ def check_engine(scenario: Scenario, methods: list) -> None:
             raise ScenarioError(
                 f"{scenario.name}: {asked}: {reason} ({other} flies it)"
             )
+
+
+def add_velocity_estimators(
+    builder: DiagramBuilder,
+    estimate: RelativeVelocity,
+    n: int,
+    states_port: OutputPort,
+    scene_port: OutputPort,
+    chain: FleetChain,
+) -> None:
+    """One `ObstacleVelocityEstimator` a vehicle, each reading its state
+    and its readings of the scene (a fleet's: split from the stacked ports,
+    the estimates stacked again) into the chain's "obstacle_velocity"."""
+
+    def split(port: OutputPort, size: int, name: str) -> list:
+        if n == 1:
+            return [port]
+        demux = builder.AddNamedSystem(name, Demultiplexer(size * n, size))
+        builder.Connect(port, demux.get_input_port(0))
+        return [demux.get_output_port(k) for k in range(n)]
+
+    states = split(states_port, STATE_SIZE, "estimator_states")
+    scenes = split(scene_port, OBSTACLE_SIGNAL_SIZE, "estimator_scenes")
+    target = chain.GetInputPort("obstacle_velocity")
+    if n > 1:
+        mux = builder.AddNamedSystem(
+            "obstacle_velocities", Multiplexer([VELOCITY_SIGNAL_SIZE] * n)
+        )
+        builder.Connect(mux.get_output_port(0), target)
+    for k in range(n):
+        estimator = builder.AddNamedSystem(
+            "velocity_estimator" if n == 1 else f"velocity_estimator_{k}",
+            ObstacleVelocityEstimator(
+                estimate.rate_hz, estimate.time_constant, estimate.gate
+            ),
+        )
+        builder.Connect(states[k], estimator.GetInputPort("state"))
+        builder.Connect(scenes[k], estimator.GetInputPort("obstacle"))
+        builder.Connect(
+            estimator.GetOutputPort("obstacle_velocity"),
+            target if n == 1 else mux.get_input_port(k),
+        )
 
 
 class OneIntegratorFleet:
@@ -241,18 +282,7 @@ class OneIntegratorFleet:
             )
             builder.Connect(sensed, chain.GetInputPort("scene"))
         if relative:
-            estimator = builder.AddNamedSystem(
-                "velocity_estimator",
-                ObstacleVelocityEstimator(
-                    estimate.rate_hz, estimate.time_constant, estimate.gate
-                ),
-            )
-            builder.Connect(estimate_port, estimator.GetInputPort("state"))
-            builder.Connect(sensed, estimator.GetInputPort("obstacle"))
-            builder.Connect(
-                estimator.GetOutputPort("obstacle_velocity"),
-                chain.GetInputPort("obstacle_velocity"),
-            )
+            add_velocity_estimators(builder, estimate, n, estimate_port, sensed, chain)
         rotors = builder.AddNamedSystem("rotors", Demultiplexer(ROTORS * n, ROTORS))
         builder.Connect(
             add_rotor_faults(

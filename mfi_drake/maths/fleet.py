@@ -124,7 +124,7 @@ def fleet_chain(
                 F_o, terms = A + B, np.concatenate((A, B))
         else:
             obstacle, u, flags = vehicle_readings(
-                p, scene[k], centres, velocities, radius, reach, k
+                p, scene[k], scene_velocities[k], centres, velocities, radius, reach, k
             )
             if rule is None:
                 F_o, terms = relative_field(

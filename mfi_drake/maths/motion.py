@@ -192,6 +192,7 @@ def _length(x, y, z):
 def vehicle_readings(
     p: np.ndarray,
     scene: np.ndarray,
+    scene_u: np.ndarray,
     centres: np.ndarray,
     velocities: np.ndarray,
     radius: float,
@@ -206,18 +207,22 @@ def vehicle_readings(
     scene's first, then the vehicles in order); `centres[itself]` is the
     vehicle's own (−1: none there). Returns (the readings, per
     reading its vehicle's velocity along the reading's normal
-    (`along_normal`, 3 each; zero for the scene's), per reading 1 where it
-    is a vehicle, else 0)."""
+    (`along_normal`, 3 each; a scene reading's its entry of `scene_u`,
+    3 a reading of `scene`: zeros where the scene stands still, an
+    `ObstacleVelocityEstimator`'s estimate among moving obstacles), per
+    reading 1 where it is a vehicle, else 0)."""
     m = len(centres)
     gaps = np.zeros(OBSTACLE_COUNT + m)
     points = np.zeros((OBSTACLE_COUNT + m, 3))
     moving = np.full(OBSTACLE_COUNT + m, -1)  # the vehicle's index, or −1
+    slot = np.full(OBSTACLE_COUNT + m, -1)  # the scene reading's slot, or −1
     found = 0
     for i in range(OBSTACLE_COUNT):
         j = READING_SIZE * i
         if scene[j + 3] > 0.5:
             gaps[found] = _length(scene[j], scene[j + 1], scene[j + 2])
             points[found] = scene[j : j + 3]
+            slot[found] = i
             found += 1
     statics = found
     limit = (reach + radius) ** 2
@@ -232,9 +237,10 @@ def vehicle_readings(
             points[found] = (d0 * scale, d1 * scale, d2 * scale)
         moving[found] = k
         found += 1
-    u, vehicle = np.zeros(3 * OBSTACLE_COUNT), np.zeros(OBSTACLE_COUNT)
+    vehicle = np.zeros(OBSTACLE_COUNT)
     if found == statics:
-        return scene, u, vehicle
+        return scene, scene_u.copy(), vehicle
+    u = np.zeros(3 * OBSTACLE_COUNT)
     signal = np.zeros(OBSTACLE_SIGNAL_SIZE)
     for i, c in enumerate(nearest_first(gaps[:found])):
         signal[READING_SIZE * i : READING_SIZE * i + 3] = points[c]
@@ -242,4 +248,6 @@ def vehicle_readings(
         if moving[c] >= 0:
             u[3 * i : 3 * i + 3] = along_normal(points[c], velocities[moving[c]])
             vehicle[i] = 1.0
+        else:
+            u[3 * i : 3 * i + 3] = scene_u[3 * slot[c] : 3 * slot[c] + 3]
     return signal, u, vehicle

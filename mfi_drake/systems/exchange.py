@@ -147,7 +147,10 @@ def merge(
     others where the message `received` puts them at t
     (`maths.motion.vehicle_readings`)."""
     centres, velocities = extrapolated(received, t)
-    return vehicle_readings(p, scene, centres, velocities, radius, reach)
+    # The scene stands still for the rule of the road's readings (a moving
+    # scene's velocities are the relative navigator's estimate).
+    still = np.zeros(3 * OBSTACLE_COUNT)
+    return vehicle_readings(p, scene, still, centres, velocities, radius, reach)
 
 
 class OtherVehicleSpheres(LeafSystem):

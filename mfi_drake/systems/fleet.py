@@ -61,8 +61,8 @@ class FleetChain(LeafSystem):
 
     "states": the N plants' states, stacked (12 N); "scene": each vehicle's
     sphere-sensor readings of the static scene, stacked (12 N; only with
-    `scene`, else nothing); "obstacle_velocity": a lone vehicle's estimate
-    of each reading's obstacle velocity (`relative.VELOCITY_SIGNAL_SIZE`,
+    `scene`, else nothing); "obstacle_velocity": each vehicle's estimate
+    of each of its scene readings' obstacle velocity, stacked (`relative.VELOCITY_SIGNAL_SIZE`,
     `relative.ObstacleVelocityEstimator`'s; only with `moving`, where the
     chain flies the relative field, `maths.motion.relative_field`, as
     `relative.RelativeNavigator` does); "rotor_forces": u of every vehicle
