@@ -60,9 +60,10 @@ class FleetChain(LeafSystem):
         - rows
 
     "states": the N plants' states, stacked (12 N); "scene": each vehicle's
-    sphere-sensor readings of the static scene, stacked (12 N; only with
-    `scene`, else nothing); "obstacle_velocity": each vehicle's estimate
-    of each of its scene readings' obstacle velocity, stacked (`relative.VELOCITY_SIGNAL_SIZE`,
+    sphere-sensor readings of the scene, stacked (12 N; only with `scene`,
+    else nothing); "obstacle_velocity": each vehicle's estimate of each of
+    its scene readings' obstacle velocity, stacked
+    (`relative.VELOCITY_SIGNAL_SIZE` a vehicle,
     `relative.ObstacleVelocityEstimator`'s; only with `moving`, where the
     chain flies the relative field, `maths.motion.relative_field`, as
     `relative.RelativeNavigator` does); "rotor_forces": u of every vehicle
