@@ -179,7 +179,7 @@ def _need_dask() -> None:
 def cmd_sweep(args) -> int:
     _need_dask()
     from mfi_drake.app.figures import plot_fleet_sweep, plot_sweep
-    from mfi_drake.flight.fleet import check_engine
+    from mfi_drake.flight.fleet import check_engine, not_compiled
     from mfi_drake.studies.cluster import ClusterError, dask_client
     from mfi_drake.studies.fleet_sweep import FLEET, fleet_table, fleet_variant
     from mfi_drake.studies.stats import summary_table
@@ -228,6 +228,10 @@ def cmd_sweep(args) -> int:
     first = field_to_fly(config, tasks, modify, config.flight_keys()[0])
     validate_scenario(first, layered_name(first.name, texts))
     check_engine(first, methods)
+    if tasks is SINGLE and first.engine == "systems":
+        reason = not_compiled(first, methods)
+        if reason is not None:
+            print(f"engine: systems ({reason})", file=sys.stderr)
     try:
         with dask_client(args.workers, args.scheduler, methods) as client:
             run = run_sweep(config, client, modify, tasks=tasks)

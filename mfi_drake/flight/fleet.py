@@ -128,12 +128,20 @@ def field_of(navigator) -> object:
     return navigator.field
 
 
+def not_compiled(scenario: Scenario, methods: list) -> str | None:
+    """Why `scenario` cannot be flown by every method of `methods` on the
+    compiled engine (the first method's `unsupported` sentence), or None."""
+    compiled = dataclasses.replace(scenario, engine="compiled")
+    return next(filter(None, (unsupported(compiled, m) for m in methods)), None)
+
+
 def on_compiled(scenario: Scenario, methods: list) -> Scenario | None:
     """`scenario` on the compiled engine, or None where a method of
-    `methods` cannot be flown there (`unsupported`): what `sweep` and
+    `methods` cannot be flown there (`not_compiled`): what `sweep` and
     `tune` fly by default (the engines fly the same flights)."""
-    compiled = dataclasses.replace(scenario, engine="compiled")
-    return None if any(unsupported(compiled, m) for m in methods) else compiled
+    if not_compiled(scenario, methods) is not None:
+        return None
+    return dataclasses.replace(scenario, engine="compiled")
 
 
 def method_systems(scenario: Scenario, method: Method) -> tuple:
