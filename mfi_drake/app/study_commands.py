@@ -228,10 +228,8 @@ def cmd_sweep(args) -> int:
     first = field_to_fly(config, tasks, modify, config.flight_keys()[0])
     validate_scenario(first, layered_name(first.name, texts))
     check_engine(first, methods)
-    if tasks is SINGLE and first.engine == "systems":
-        reason = not_compiled(first, methods)
-        if reason is not None:
-            print(f"engine: systems ({reason})", file=sys.stderr)
+    # Said with the results (a refusal below stays one line).
+    why = not_compiled(first, methods) if first.engine == "systems" else None
     try:
         with dask_client(args.workers, args.scheduler, methods) as client:
             run = run_sweep(config, client, modify, tasks=tasks)
@@ -254,6 +252,8 @@ def cmd_sweep(args) -> int:
             f"flew {run.ran}, found {run.skipped} done; wrote {args.out}/: "
             "results.jsonl, summary.json, table.md, sweep.png, failures/"
         )
+        if tasks is SINGLE and why is not None:
+            print(f"engine: systems ({why})")
     for line in run.lost:
         print(f"mfi-drake: not run (rerun to retry): {line}", file=sys.stderr)
     return 1 if run.lost else 0
