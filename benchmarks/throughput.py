@@ -70,7 +70,7 @@ import time
 
 import numpy as np
 from pydrake.examples import StabilizingLQRController
-from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput
 
 from mfi_drake.config.scenario import Scenario, ScenarioError
@@ -148,15 +148,36 @@ def mfi_run(scenario: Scenario) -> Run:
     )
 
 
-def lqr_run(scenario: Scenario) -> Run:
-    """QuadrotorPlant + StabilizingLQRController hovering at scenario.start."""
+class PythonPassThrough(LeafSystem):
+    """A Python LeafSystem that computes nothing: its output is its input
+    (what any Python system in the loop costs an evaluation, at least)."""
+
+    def __init__(self, size: int):
+        super().__init__()
+        port = self.DeclareVectorInputPort("u", size)
+        self.DeclareVectorOutputPort(
+            "y",
+            size,
+            lambda context, out: out.SetFromVector(port.Eval(context)),
+            prerequisites_of_calc={port.ticket()},
+        )
+
+
+def lqr_run(scenario: Scenario, python_systems: int = 0) -> Run:
+    """QuadrotorPlant + StabilizingLQRController hovering at scenario.start;
+    with `python_systems` `PythonPassThrough`s in turn between the two."""
     builder = DiagramBuilder()
     plant = builder.AddSystem(make_plant(VEHICLES[scenario.vehicle]))
     controller = builder.AddSystem(
         StabilizingLQRController(plant, np.asarray(scenario.start, float))
     )
     builder.Connect(plant.get_output_port(0), controller.get_input_port())
-    builder.Connect(controller.get_output_port(), plant.get_input_port(0))
+    command = controller.get_output_port()
+    for _ in range(python_systems):
+        passed = builder.AddSystem(PythonPassThrough(command.size()))
+        builder.Connect(command, passed.get_input_port(0))
+        command = passed.get_output_port(0)
+    builder.Connect(command, plant.get_input_port(0))
     LogVectorOutput(plant.get_output_port(0), builder, publish_period=0.0)
     simulator = simulator_at_start(builder.Build(), plant, scenario)
     wall_time, cpu_time = run_timed(simulator, scenario.duration)
@@ -232,24 +253,56 @@ class TimedQueries:
         sensors.nearest_obstacles = self._saved
 
 
-def query_floor(scenario: Scenario, lqr: "Run", say) -> dict:
+def query_floor(scenario: Scenario, lqr: "Run", repeats: int, say) -> dict:
     """The compiled flight's SceneGraph queries a step and their cost alone,
-    against what a step may cost for COMPILED_BAR of the C++ diagram."""
+    against what a step may cost for COMPILED_BAR of the C++ diagram; and
+    what one and two Python systems that compute nothing cost in the C++
+    diagram (`PythonPassThrough`): the compiled engine has two a
+    derivative evaluation (the card's sensor reading SceneGraph, the
+    chain), which leaves what the bar allows less those and the query for
+    the chain's arithmetic, its per-step event and the logger."""
     with TimedQueries() as queries:
         flight = simulate(dataclasses.replace(scenario, engine="compiled"))
-    steps = flight.integrator_steps
+    steps, evaluations = flight.integrator_steps, flight.derivative_evaluations
     per_step = queries.count / steps
     each = queries.seconds / queries.count
     allowed = lqr.cpu_time / COMPILED_BAR / steps
     say(
         f"   the compiled flight's sensor: {per_step:.2f} SceneGraph distance "
-        f"queries per step ({flight.derivative_evaluations / steps:.2f} "
+        f"queries per step ({evaluations / steps:.2f} "
         f"derivative evaluations), {1e6 * each:.1f} us each alone = "
         f"{1e6 * per_step * each:.1f} us per step; a ratio of {COMPILED_BAR:g} "
         f"allows {1e6 * allowed:.1f} us per step at its {steps} steps, query, "
         "plant, integrator, chain and logger together"
     )
-    return {"queries_per_step": per_step, "query": each, "allowed": allowed}
+    passed = {k: best([lqr_run(scenario, k) for _ in range(repeats)]) for k in (1, 2)}
+    python = {
+        k: (run.cpu_time - lqr.cpu_time) / run.derivative_evaluations
+        for k, run in passed.items()
+    }
+    left = (
+        allowed * steps / evaluations
+        - python[2]
+        - per_step * each * steps / evaluations
+    )
+    say(
+        f"   the C++ diagram with 1 / 2 Python systems that compute nothing "
+        f"(`PythonPassThrough`): {1e6 * python[1]:.1f} / {1e6 * python[2]:.1f} "
+        f"us more an evaluation, ratio to C++ "
+        f"{lqr.cpu_time / passed[1].cpu_time:.3f} / "
+        f"{lqr.cpu_time / passed[2].cpu_time:.3f}; at the compiled flight's "
+        f"evaluations a ratio of {COMPILED_BAR:g} leaves {1e6 * left:.1f} us an "
+        "evaluation beside two Python systems and the query: the plant, "
+        "integrator and logger, the chain's arithmetic and its events"
+    )
+    return {
+        "queries_per_step": per_step,
+        "query": each,
+        "allowed": allowed,
+        "python_system": python,
+        "passed_through": passed,
+        "left_per_evaluation": left,
+    }
 
 
 def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
@@ -300,7 +353,7 @@ def against_cpp(scenario: Scenario, repeats: int, say) -> dict:
         "mfi": mfi,
         "lqr": lqr,
         "compiled": fast,
-        "compiled_floor": query_floor(scenario, lqr, say),
+        "compiled_floor": query_floor(scenario, lqr, repeats, say),
         "compiled_ratio": compiled_ratio,
         "commands": commands,
         "ratio": ratio,

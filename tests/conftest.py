@@ -30,13 +30,19 @@ def write_yaml(tmp_path):
 @pytest.fixture
 def module_dir(tmp_path, monkeypatch):
     """tmp_path as the current directory, where a test writes a user's
-    module; the import path and the modules imported are restored after."""
+    module; the import path is restored after, and the modules imported
+    from tmp_path are forgotten. Only those: a library's module imported
+    meanwhile stays (numba imports its typing declarations lazily, and
+    imported again they would register every declaration twice: "cannot
+    augment Function(eq) with Function(eq)" in every later compile)."""
     monkeypatch.chdir(tmp_path)
-    path, modules = list(sys.path), dict(sys.modules)
+    path, modules = list(sys.path), set(sys.modules)
     yield tmp_path
     sys.path[:] = path
-    for name in set(sys.modules) - set(modules):
-        del sys.modules[name]
+    for name in set(sys.modules) - modules:
+        where = getattr(sys.modules[name], "__file__", None) or ""
+        if os.path.realpath(where).startswith(os.path.realpath(tmp_path)):
+            del sys.modules[name]
 
 
 @pytest.fixture(scope="module")

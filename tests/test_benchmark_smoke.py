@@ -54,6 +54,13 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     floor, evaluations = result["compiled_floor"], fast.derivative_evaluations
     assert 1.0 <= floor["queries_per_step"] <= evaluations / fast.steps + 2.0
     assert floor["query"] > 0.0 and "distance queries per step" in out
+    # Python systems that pass the LQR's command on change no step of it.
+    for run in floor["passed_through"].values():
+        assert (run.steps, run.derivative_evaluations) == (
+            lqr.steps,
+            lqr.derivative_evaluations,
+        )
+    assert "Python systems that compute nothing" in out
     for engine in ("systems", "compiled"):
         wall, factor = result["commands"][engine]
         assert wall > 2.0 / factor  # the command holds the flight and more

@@ -100,7 +100,7 @@ def test_the_chain_is_each_vehicles_escape_navigator_and_aims_by_the_scene():
     rate = escape_steering.corner_rate(
         scene.navigator.K_v / VEHICLE.mass, scene.navigator.v_d, scene.navigator.r_b
     )
-    arguments[-4:] = [memories, RULE, rate, escape.NO_GROUND]
+    arguments[-5:-1] = [memories, RULE, rate, escape.NO_GROUND]
     rows = np.zeros((len(states), fleet.ROW_SIZE))
     fleet.fleet_chain(*arguments, rows)
     np.testing.assert_array_equal(rows, want)

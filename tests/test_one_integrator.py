@@ -117,6 +117,7 @@ def chain_arguments(scene, states, scene_readings, modes, compiled_form):
         None,
         0.0,
         escape.NO_GROUND,
+        np.zeros((0, 3)),  # no user's field (its forces)
     )
 
 

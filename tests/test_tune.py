@@ -105,9 +105,9 @@ def test_same_budget_and_fields_for_every_method_and_toy_optimum(
     # Every method: candidates × fields flights, on the same fields.
     assert all(len(v) == 9 * 2 for v in flown.values())
     assert flown["toy:cruise"] == flown["gf"]
-    # GF flies on the compiled engine, the user's field on the systems.
+    # Both on the compiled engine: numba compiles the user's field too.
     engines = {m: {r["engine"] for r in records if r["method"] == m} for m in best}
-    assert engines == {"toy:cruise": {"systems"}, "gf": {"compiled"}}
+    assert engines == {"toy:cruise": {"compiled"}, "gf": {"compiled"}}
     # The toy's optimum is k = 2 (cruise at 1.5 m/s); 9 candidates of a
     # 1-D search over [0.5, 4] get within 0.25 of it.
     assert best["toy:cruise"].values["field_gains.k"] == pytest.approx(2.0, abs=0.25)

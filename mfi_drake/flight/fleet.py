@@ -44,7 +44,7 @@ from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
-from mfi_drake.maths import baselines, fields
+from mfi_drake.maths import baselines, compiled, fields, fleet
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.escape import EscapeNavigator
@@ -55,11 +55,12 @@ from mfi_drake.systems.faults import (
     estimate_faulted,
     readings_faulted,
 )
-from mfi_drake.systems.fleet import FleetChain, TrueRows
+from mfi_drake.systems.fleet import FleetChain, TrueRows, UserForces
 from mfi_drake.systems.navigation import (
     GoalAttractionSelector,
     ObstacleNavigator,
     PotentialGoalAttraction,
+    UserFieldNavigator,
 )
 from mfi_drake.systems.relative import (
     VELOCITY_SIGNAL_SIZE,
@@ -88,7 +89,8 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
     and eq 21 selector (mfi, mfi-paper; mfi-nc's escape rule, a memory a
-    vehicle), or APF's or GF's field and attraction; the sphere sensor,
+    vehicle), APF's or GF's field and attraction, or a user's field numba
+    compiles (`uncompiled_field`); the sphere sensor,
     moving obstacles (where `methods.escape_off` turns the escape rule
     off), faults for a lone vehicle, no point-cloud map; a fleet with the
     relative velocity."""
@@ -100,14 +102,18 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         and selector.fixed_mode is None
     )
     escape = isinstance(navigator, EscapeNavigator)
-    if not (
+    if isinstance(navigator, UserFieldNavigator):
+        why = uncompiled_field(navigator)
+        if why is not None:
+            return f"method {method.name}: {why}"
+    elif not (
         (escape or isinstance(navigator, ObstacleNavigator))
         and field_of(navigator) in COMPILED_FIELDS
         and (mfi or isinstance(selector, PotentialGoalAttraction))
     ):
         return (
             f"method {method.name}: the compiled chain flies the fields of "
-            "mfi, mfi-paper, mfi-nc, apf and gf only"
+            "mfi, mfi-paper, mfi-nc, apf and gf, and users' fields numba compiles"
         )
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
@@ -118,6 +124,32 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     if scenario.other_vehicles and not scenario.relative_velocity.enabled:
         return "relative_velocity.enabled = false: one integrator flies with it"
     return None
+
+
+def uncompiled_field(navigator: UserFieldNavigator) -> str | None:
+    """Why numba cannot compile a user's field (one line), or None where it
+    can (compiled here, once per field and gains in a process: `UserForces`
+    for one vehicle compiles what a fleet's calls too)."""
+    try:
+        UserForces(navigator, 1, 0.0, 0.0)
+    except Exception as e:  # numba's errors, a gain that is no identifier
+        return f"numba cannot compile the field: {compiled.compile_error(e)}"
+    return None
+
+
+def user_fallback(scenario: Scenario, method: "str | Method") -> str | None:
+    """Why a lone vehicle asking for `engine: compiled` flies a user's
+    field on `systems` instead (`uncompiled_field`), or None. Every other
+    refusal of `unsupported` stands (`check_engine`); a fleet on one
+    integrator has no `systems` form to fall back on."""
+    if scenario.engine != "compiled" or scenario.other_vehicles:
+        return None
+    method = resolve_method(method)
+    navigator, _ = method_systems(scenario, method)
+    if not isinstance(navigator, UserFieldNavigator):
+        return None
+    why = uncompiled_field(navigator)
+    return None if why is None else f"method {method.name}: {why}"
 
 
 def field_of(navigator) -> object:
@@ -169,7 +201,7 @@ def check_engine(scenario: Scenario, methods: list) -> None:
         asked, other = "fleet_integration = 'one'", "fleet_integration: separate"
     for method in methods:
         reason = unsupported(scenario, method)
-        if reason is not None:
+        if reason is not None and user_fallback(scenario, method) is None:
             raise ScenarioError(
                 f"{scenario.name}: {asked}: {reason} ({other} flies it)"
             )
@@ -239,21 +271,25 @@ class OneIntegratorFleet:
         for k, plant in enumerate(self.plants):
             builder.Connect(plant.get_output_port(0), states.get_input_port(k))
         navigator, selector = method_systems(scenario, method)
-        attract = baselines.attraction_terms  # the goal part of ...
-        if isinstance(selector, GoalAttractionSelector):  # ... all but MFI
+        user = navigator if isinstance(navigator, UserFieldNavigator) else None
+        attract = baselines.attraction_terms  # the goal part of the baselines,
+        if isinstance(selector, GoalAttractionSelector):  # MFI's
             attract = fields.goal_terms
+        elif user is not None:  # a user's field (its F_n, `PassThroughGoal`)
+            attract = fleet.no_goal_terms
         estimate = scenario.relative_velocity
         scene = bool(scenario.obstacles) or scenario.ground is not None
         # Their velocities estimated from the readings, as `flight.chain.
-        # navigator_of`'s `relative_navigator` does on the systems engine.
-        relative = bool(frames.frames) and estimate.enabled
+        # navigator_of`'s `relative_navigator` does on the systems engine
+        # (a user's field reads none).
+        relative = bool(frames.frames) and estimate.enabled and user is None
         chain = builder.AddNamedSystem(
             "fleet_chain",
             FleetChain(
                 [s.goal for s in self.flown],
-                field_of(navigator),
+                fields.obstacle_field if user else field_of(navigator),
                 attract,
-                navigator.params,
+                scenario.navigator if user else navigator.params,
                 scenario.navigator,
                 self.vehicle,
                 scenario.sensor.radius,
@@ -264,6 +300,7 @@ class OneIntegratorFleet:
                 getattr(navigator, "rule", None),  # mfi-nc's escape rule
                 getattr(navigator, "ground", None),
                 relative,
+                user,
             ),
         )
         # Faults (a lone vehicle's, `unsupported`): the chain reads the state

@@ -144,9 +144,18 @@ def compiled(module: types.ModuleType) -> types.SimpleNamespace:
     return types.SimpleNamespace(**_namespaces()[module.__name__])
 
 
-@functools.cache
 def _namespaces() -> dict[str, dict]:
-    """Every module's namespace of compiled clones, by module name."""
+    """Every module's namespace of compiled clones, by module name: made
+    once in a process, by the first of its threads (a Dask client's; two
+    sets of clones would share their uuids)."""
+    from numba.core.compiler_lock import global_compiler_lock
+
+    with global_compiler_lock:
+        return _made_namespaces()
+
+
+@functools.cache
+def _made_namespaces() -> dict[str, dict]:
     import numba
 
     namespaces = {m.__name__: dict(vars(m)) for m in MODULES}
@@ -309,6 +318,78 @@ def specialised(function, *arguments):
         with _compile_lock(function, kinds):
             function(*arguments)
     return function.overloads[kinds].entry_point
+
+
+def user_field(field, names: tuple[str, ...], *arguments):
+    """A user's field `field(position, velocity, obstacle_points, goal,
+    **gains)` compiled into `fleet.user_forces`: (that function's compiled
+    entry for exactly the types of `arguments`, its arguments after `user`
+    and with the gains a tuple in the order of `names`; the compiled
+    binding to pass it as `user`). Raises what numba raises where it cannot
+    compile `field` (or ValueError for a gain that is no identifier).
+
+    The field compiles once per machine where it is a function of a file
+    (numba's own cache, beside that file, stamped by it); its binding and
+    the loop calling it once per process and gains (~1 s), since their
+    signatures hold the binding, which no later process could name. The
+    maths they call load from this module's cache. Compiled, not called: a
+    field that raises at some inputs still compiles, and raises in flight
+    as on `systems`."""
+    from numba.core.compiler_lock import global_compiler_lock
+
+    # Held throughout: threads of one process (a Dask client's) would each
+    # make a binding of the field at once (functools.cache does not lock).
+    with global_compiler_lock:
+        bound, forces = _user_binding(field, tuple(names))
+        kinds = (forces.typeof_pyval(bound),)
+        kinds += tuple(map(forces.typeof_pyval, arguments))
+        if kinds not in forces.overloads:
+            forces.compile(kinds)
+        return forces.overloads[kinds].entry_point, bound
+
+
+def compile_error(error: Exception) -> str:
+    """One line of what numba raised where it could not compile a function:
+    its first line that says why, and where in the user's source."""
+    lines = [line.strip() for line in str(error).splitlines()]
+    said = [line for line in lines if line and not line.startswith(_NOISE)]
+    where = [line for line in lines if line.startswith('File "')]
+    why = " ".join((said[0] if said else type(error).__name__).split())[:200]
+    return f"{why} ({where[0].rstrip(':')})" if where else why
+
+
+_NOISE = ("Failed in ", "During:", "File ", "^", "<source", "def ")
+
+
+@functools.cache
+def _user_binding(field, names: tuple[str, ...]) -> tuple:
+    """(`field` compiled with its keyword gains bound by position and its
+    F_n made an array, `fleet.user_forces` compiled without the disk
+    cache)."""
+    import numba
+
+    for name in names:
+        if not name.isidentifier():
+            raise ValueError(f"field_gains.{name}: not a Python identifier")
+    user = field
+    if not isinstance(field, numba.core.dispatcher.Dispatcher):
+        try:  # numba's own cache beside the user's file: compiled once there
+            user = numba.njit(field, cache=True)
+        except RuntimeError:  # no file to cache beside (a REPL's, exec's)
+            user = numba.njit(field)
+    namespace = {"np": np, "user": user}
+    gains = "".join(f", {name}=gains[{i}]" for i, name in enumerate(names))
+    exec(  # a keyword call numba compiles: the names are the field's
+        "def bound(position, velocity, obstacle_points, goal, gains):\n"
+        "    force = user(position, velocity, obstacle_points, goal" + gains + ")\n"
+        "    return np.asarray(force, dtype=np.float64)\n",
+        namespace,
+    )
+    function = fleet.user_forces
+    forces = types.FunctionType(
+        function.__code__, _namespaces()[fleet.__name__], function.__name__
+    )
+    return numba.njit(namespace["bound"]), numba.njit(forces)
 
 
 @contextlib.contextmanager

@@ -1,7 +1,8 @@
 """A fleet's whole chain in one call: for every vehicle, its readings of the
 others, the relative obstacle field (eq 11–15, or a baseline's), eq 21's
-goal terms (eq 16–20, or the baselines' attraction), the attitude PD (eq
-22–25) and the mixer (eq 8), composed of the
+goal terms (eq 16–20, or the baselines' attraction), or a user's field's
+F_n (`user_forces`), the attitude PD (eq 22–25) and the mixer (eq 8),
+composed of the
 functions the single-vehicle systems call, in the order they call them
 (docs/fleets.md, "One integrator"). Plain Python, so it runs as it is;
 `maths.compiled` compiles it for `systems.fleet.FleetChain`.
@@ -11,7 +12,13 @@ import numpy as np
 
 from mfi_drake.maths.escape_steering import escape_terms, relative_escape_terms
 from mfi_drake.maths.fields import MODE_CRUISE, next_mode, superposed
-from mfi_drake.maths.layout import OBSTACLE_COUNT, POSITION, VELOCITY, slices
+from mfi_drake.maths.layout import (
+    OBSTACLE_COUNT,
+    POSITION,
+    VELOCITY,
+    seen_points,
+    slices,
+)
 from mfi_drake.maths.motion import relative_field, vehicle_readings
 from mfi_drake.maths.quadcopter import attitude_command, mix
 
@@ -60,6 +67,7 @@ def fleet_chain(
     rule,
     rate: float,
     ground: float,
+    forces: np.ndarray,
     rows: np.ndarray,
 ) -> None:
     """Fills `rows` (N, ROW_SIZE) with each vehicle's ROW at the fleet's
@@ -82,12 +90,18 @@ def fleet_chain(
     field at the subgoal of vehicle k's memory `memories[k]`, read with
     the corner gain `rate` above the ground at height `ground` from the
     scene's readings `scene[k]` alone (`escape_steering.escape_terms`, in a fleet
-    `escape_steering.relative_escape_terms`: the others are the field's)."""
+    `escape_steering.relative_escape_terms`: the others are the field's).
+    `forces` (N, 3): a user's field's F_n of each vehicle (`user_forces`),
+    flown as `PassThroughGoal` hands it on (`attract` is `no_goal_terms`);
+    (0, 3): the method's field."""
     centres, velocities = states[:, POSITION], states[:, VELOCITY]
     for k in range(len(states)):
         x, mode, goal = states[k], modes[k], goals[k]
         p, v = x[POSITION], x[VELOCITY]
-        if len(states) == 1:  # alone: the scene's field alone
+        if len(forces):  # a user's field: its F_n as the obstacle force
+            obstacle = readings_of(k, states, scene, scene_velocities, radius, reach)
+            F_o, terms = forces[k], np.concatenate((forces[k], np.zeros(3)))
+        elif len(states) == 1:  # alone: the scene's field alone
             obstacle = scene[k]
             if moving:  # the velocity relative to each reading's obstacle
                 F_o, terms = relative_field(
@@ -170,6 +184,70 @@ def fleet_chain(
         at = _put(row, at + 1, setpoint)
         at = _put(row, at, u_rotor)
         row[at] = saturated
+
+
+def readings_of(
+    k: int,
+    states: np.ndarray,
+    scene: np.ndarray,
+    scene_velocities: np.ndarray,
+    radius: float,
+    reach: float,
+) -> np.ndarray:
+    """Vehicle k's readings: the scene's alone, or in a fleet the scene's and
+    the others' (`vehicle_readings`)."""
+    if len(states) == 1:
+        return scene[k]
+    x = states[k]
+    return vehicle_readings(
+        x[POSITION],
+        scene[k],
+        scene_velocities[k],
+        states[:, POSITION],
+        states[:, VELOCITY],
+        radius,
+        reach,
+        k,
+    )[0]
+
+
+def user_forces(
+    user,
+    states: np.ndarray,
+    scene: np.ndarray,
+    scene_velocities: np.ndarray,
+    goals: np.ndarray,
+    gains: tuple,
+    radius: float,
+    reach: float,
+    forces: np.ndarray,
+) -> int:
+    """Fills `forces` (N, 3) with each vehicle's F_n of a user's field
+    `user(position, velocity, obstacle_points, goal, gains)` (its keyword
+    gains bound by position, `compiled.user_field`), called with copies
+    (`UserFieldNavigator`'s contract) at vehicle k's readings
+    (`readings_of`). Returns the first vehicle whose F_n is not 3 finite
+    numbers (the rest unfilled), or −1."""
+    for k in range(len(states)):
+        x = states[k]
+        obstacle = readings_of(k, states, scene, scene_velocities, radius, reach)
+        force = user(
+            x[POSITION].copy(),
+            x[VELOCITY].copy(),
+            seen_points(obstacle),
+            goals[k].copy(),
+            gains,
+        )
+        if force.size != 3 or not np.all(np.isfinite(force)):
+            return k
+        forces[k] = force
+    return -1
+
+
+def no_goal_terms(mode, p, v, goal, params, F_o, mass) -> tuple:
+    """The goal terms (F_gc, F_v, F_pd) of a method whose navigator gives
+    F_n (a user's field, `PassThroughGoal`): none."""
+    return np.zeros(3), np.zeros(3), np.zeros(3)
 
 
 def _put(row: np.ndarray, at: int, part: np.ndarray) -> int:

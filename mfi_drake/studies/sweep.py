@@ -407,8 +407,8 @@ def default_engine(
 ) -> Callable[[Scenario], Scenario] | None:
     """`modify` with `engine: compiled` layered under it, where every method
     of `config` flies the first field so layered on the compiled engine
-    (`flight.fleet.unsupported`: not cameras, maps, user fields, a fleet's
-    faults); else `modify`. A layer of
+    (`flight.fleet.unsupported`: not cameras, maps, a user's field numba
+    cannot compile, a fleet's faults); else `modify`. A layer of
     `modify` that names an engine wins: `engine: systems` undoes the default, and
     `engine: compiled` flies (or is refused by `check_engine`) as asked.
     `sweep`'s default. The engines fly the same flights (benchmarks/

@@ -39,7 +39,12 @@ from mfi_drake.maths.layout import (
 from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
 from mfi_drake.systems.escape import TRAPPED_MESSAGE
 from mfi_drake.systems.last_result import LastResult
-from mfi_drake.systems.navigation import mode_witnesses
+from mfi_drake.systems.navigation import (
+    UserFieldError,
+    UserFieldNavigator,
+    call_field,
+    mode_witnesses,
+)
 from mfi_drake.systems.relative import VELOCITY_SIGNAL_SIZE
 
 
@@ -77,7 +82,8 @@ class FleetChain(LeafSystem):
     parameters; `attitude`: the attitude PD's (the scenario's `navigator`).
     `rule`: the escape rule's parameters (mfi-nc: a memory a vehicle, which
     reads "scene" alone), `ground`: the ground's height it reads (None:
-    none).
+    none). `user`: a user's field's navigator, whose F_n the chain flies
+    (`UserForces`; `attract` is then `fleet.no_goal_terms`).
     """
 
     def __init__(
@@ -96,6 +102,7 @@ class FleetChain(LeafSystem):
         rule: escape.EscapeParams | None = None,
         ground: float | None = None,
         moving: bool = False,
+        user: UserFieldNavigator | None = None,
     ):
         super().__init__()
         self._goals = np.array(goals, float)
@@ -138,6 +145,10 @@ class FleetChain(LeafSystem):
         self._no_scene = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
         self._no_velocity = np.zeros((n, VELOCITY_SIGNAL_SIZE))  # no estimate
         self._moving = bool(moving)
+        self._no_forces = np.zeros((0, 3))  # the method's field, no user's
+        self._user = None
+        if user is not None:
+            self._user = UserForces(user, n, vehicle.collision_radius, sensor_radius)
         self._chain = compiled.specialised(
             functions.fleet_chain,
             self._field,
@@ -150,6 +161,7 @@ class FleetChain(LeafSystem):
             *self._constants,
             np.zeros((n, self._memory_size)),
             *self._escape,
+            self._no_forces,
             np.zeros((n, fleet.ROW_SIZE)),
         )
         if rule is not None:
@@ -316,25 +328,108 @@ class FleetChain(LeafSystem):
         if self._velocity is not None:
             u = self._velocity.Eval(context)
             key += u.tobytes()
-        return self._last(key, self._evaluate, states, scene, u, discrete)
+        time = context.get_time()
+        return self._last(key, self._evaluate, states, scene, u, discrete, time)
 
-    def _evaluate(self, states, scene, u, discrete):
+    def _evaluate(self, states, scene, u, discrete, time: float):
         n = len(self._goals)
         rows = np.empty((n, fleet.ROW_SIZE))
+        states = states.reshape(n, STATE_SIZE)
+        scene = np.array(scene).reshape(n, OBSTACLE_SIGNAL_SIZE)
+        u = np.array(u).reshape(n, VELOCITY_SIGNAL_SIZE)
+        forces = self._no_forces
+        if self._user is not None:
+            forces = self._user(states, scene, u, self._goals, time)
         self._chain(
             self._field,
-            states.reshape(n, STATE_SIZE),
-            np.array(scene).reshape(n, OBSTACLE_SIGNAL_SIZE),
-            np.array(u).reshape(n, VELOCITY_SIGNAL_SIZE),
+            states,
+            scene,
+            u,
             self._moving,
             discrete[:n],
             self._goals,
             *self._constants,
             discrete[n:].reshape(n, self._memory_size),
             *self._escape,
+            forces,
             rows,
         )
         return rows, rows[:, self._forces].ravel()
+
+
+class UserForces:
+    """A user's field (a `UserFieldNavigator`'s, its parameters copied)
+    compiled for N vehicles (`maths.compiled.user_field`): called with the
+    fleet's states, readings of the scene and goals, each vehicle's F_n
+    (`maths.fleet.user_forces`). Raises UserFieldError as `systems` does
+    (`call_field` says it, at the vehicle that failed); what numba raises
+    where it cannot compile the field, on construction."""
+
+    def __init__(
+        self,
+        navigator: UserFieldNavigator,
+        n: int,
+        radius: float,
+        sensor_radius: float,
+    ):
+        self._field, self._name = navigator.field, navigator.field_name
+        self._gains = dict(navigator.gains)
+        self._values = tuple(float(value) for value in self._gains.values())
+        self._radius, self._reach = float(radius), float(sensor_radius)
+        self._forces, self._bound = compiled.user_field(
+            self._field,
+            tuple(self._gains),
+            np.zeros((n, STATE_SIZE)),
+            np.zeros((n, OBSTACLE_SIGNAL_SIZE)),
+            np.zeros((n, VELOCITY_SIGNAL_SIZE)),
+            np.zeros((n, 3)),
+            self._values,
+            self._radius,
+            self._reach,
+            np.zeros((n, 3)),
+        )
+
+    def __call__(self, states, scene, u, goals, time: float) -> np.ndarray:
+        """(N, 3): each vehicle's F_n at `states`, `scene`, `u` (the chain's
+        arrays) toward `goals` at `time`."""
+        forces = np.empty((len(states), 3))
+        try:
+            failed = self._forces(
+                self._bound,
+                states,
+                scene,
+                u,
+                goals,
+                self._values,
+                self._radius,
+                self._reach,
+                forces,
+            )
+        except Exception as e:  # raised within the field
+            message = " ".join(str(e).split())
+            said = f"raised {type(e).__name__}: {message}"
+            self._say(states, scene, u, goals, time, range(len(states)), said)
+        if failed >= 0:
+            said = "returned no 3 finite numbers (F_n [N])"
+            self._say(states, scene, u, goals, time, [failed], said)
+        return forces
+
+    def _say(self, states, scene, u, goals, time: float, vehicles, said: str):
+        """Raises what `call_field` raises for the first of `vehicles` whose
+        field fails at those inputs in Python, as `systems` would fly it;
+        else UserFieldError saying what the compiled field `said`."""
+        for k in vehicles:
+            obstacle = fleet.readings_of(k, states, scene, u, self._radius, self._reach)
+            call_field(
+                self._field,
+                self._name,
+                self._gains,
+                goals[k],
+                states[k],
+                obstacle,
+                time,
+            )
+        raise UserFieldError(f"{self._name} at t = {time:.3f} s: {said} (compiled)")
 
 
 class TrueRows(LeafSystem):

@@ -498,29 +498,40 @@ class UserFieldNavigator(LeafSystem):
         return self._last(key, self._call, x, obstacle, context.get_time())
 
     def _call(self, x, obstacle, time: float) -> np.ndarray:
-        p, v = position_velocity(x)
-        where = f"{self.field_name} at t = {time:.3f} s"
-        try:
-            # Copies: the user's function cannot change the diagram's values.
-            force = self.field(
-                p.copy(),
-                v.copy(),
-                seen_points(obstacle),
-                self.goal.copy(),
-                **self.gains,
-            )
-            force = np.asarray(force, dtype=float)
-        except Exception as e:
-            message = " ".join(str(e).split())
-            raise UserFieldError(
-                f"{where}: raised {type(e).__name__}: {message}"
-            ) from None
-        if force.shape != (3,) or not np.all(np.isfinite(force)):
-            shown = " ".join(repr(force.tolist()).split())[:80]
-            raise UserFieldError(
-                f"{where}: returned {shown}: must be 3 finite numbers (F_n [N])"
-            )
-        return force
+        return call_field(
+            self.field, self.field_name, self.gains, self.goal, x, obstacle, time
+        )
+
+
+def call_field(
+    field,
+    name: str,
+    gains: dict,
+    goal: np.ndarray,
+    x: np.ndarray,
+    obstacle: np.ndarray,
+    time: float,
+) -> np.ndarray:
+    """F_n of the user's `field` (named `name`, called with its keyword
+    `gains`) toward `goal` at the state `x` and the readings `obstacle` at
+    `time`, as
+    `UserFieldNavigator` flies it; raises UserFieldError where it raises or
+    returns no finite 3-vector."""
+    p, v = position_velocity(x)
+    where = f"{name} at t = {time:.3f} s"
+    try:
+        # Copies: the user's function cannot change the diagram's values.
+        force = field(p.copy(), v.copy(), seen_points(obstacle), goal.copy(), **gains)
+        force = np.asarray(force, dtype=float)
+    except Exception as e:
+        message = " ".join(str(e).split())
+        raise UserFieldError(f"{where}: raised {type(e).__name__}: {message}") from None
+    if force.shape != (3,) or not np.all(np.isfinite(force)):
+        shown = " ".join(repr(force.tolist()).split())[:80]
+        raise UserFieldError(
+            f"{where}: returned {shown}: must be 3 finite numbers (F_n [N])"
+        )
+    return force
 
 
 class PassThroughGoal(LeafSystem):
