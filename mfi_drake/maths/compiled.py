@@ -330,8 +330,8 @@ def user_field(field, names: tuple[str, ...], *arguments):
 
     The field compiles once per machine where it is a function of a file
     (numba's own cache, beside that file, stamped by it); its binding and
-    the loop calling it once per process and gains (~1 s), since their
-    signatures hold the binding, which no later process could name. The
+    the loop calling it once per process and names of gains (~1.5 s):
+    their signatures hold the binding, which no later process could name. The
     maths they call load from this module's cache. Compiled, not called: a
     field that raises at some inputs still compiles, and raises in flight
     as on `systems`."""

@@ -8,6 +8,8 @@ functions the single-vehicle systems call, in the order they call them
 `maths.compiled` compiles it for `systems.fleet.FleetChain`.
 """
 
+import math
+
 import numpy as np
 
 from mfi_drake.maths.escape_steering import escape_terms, relative_escape_terms
@@ -211,36 +213,50 @@ def readings_of(
     )[0]
 
 
-def user_forces(
-    user,
+def fleet_readings(
     states: np.ndarray,
     scene: np.ndarray,
     scene_velocities: np.ndarray,
-    goals: np.ndarray,
-    gains: tuple,
     radius: float,
     reach: float,
+    out: np.ndarray,
+) -> None:
+    """Fills `out` (N, OBSTACLE_SIGNAL_SIZE) with each vehicle's readings
+    (`readings_of`)."""
+    for k in range(len(states)):
+        out[k] = readings_of(k, states, scene, scene_velocities, radius, reach)
+
+
+def user_forces(
+    user,
+    states: np.ndarray,
+    readings: np.ndarray,
+    goals: np.ndarray,
+    gains: tuple,
     forces: np.ndarray,
 ) -> int:
     """Fills `forces` (N, 3) with each vehicle's F_n of a user's field
     `user(position, velocity, obstacle_points, goal, gains)` (its keyword
     gains bound by position, `compiled.user_field`), called with copies
-    (`UserFieldNavigator`'s contract) at vehicle k's readings
-    (`readings_of`). Returns the first vehicle whose F_n is not 3 finite
-    numbers (the rest unfilled), or −1."""
+    (`UserFieldNavigator`'s contract) at vehicle k's `readings[k]`
+    (`fleet_readings`). Returns the first vehicle whose F_n is not 3
+    finite numbers (the rest unfilled), or −1. Small on purpose: it is
+    compiled for each user's field in each process."""
     for k in range(len(states)):
         x = states[k]
-        obstacle = readings_of(k, states, scene, scene_velocities, radius, reach)
         force = user(
             x[POSITION].copy(),
             x[VELOCITY].copy(),
-            seen_points(obstacle),
+            seen_points(readings[k]),
             goals[k].copy(),
             gains,
         )
-        if force.size != 3 or not np.all(np.isfinite(force)):
+        if force.size != 3:
             return k
-        forces[k] = force
+        for i in range(3):  # math's, not numpy's ufunc: compiled in no time
+            if not math.isfinite(force[i]):
+                return k
+            forces[k, i] = force[i]
     return -1
 
 

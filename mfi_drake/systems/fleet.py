@@ -376,57 +376,59 @@ class UserForces:
         self._gains = dict(navigator.gains)
         self._values = tuple(float(value) for value in self._gains.values())
         self._radius, self._reach = float(radius), float(sensor_radius)
+        at_rest = np.zeros((n, STATE_SIZE))
+        readings = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
+        self._readings = compiled.specialised(
+            compiled.compiled(fleet).fleet_readings,
+            at_rest,
+            readings,
+            np.zeros((n, VELOCITY_SIGNAL_SIZE)),
+            self._radius,
+            self._reach,
+            readings,
+        )
         self._forces, self._bound = compiled.user_field(
             self._field,
             tuple(self._gains),
-            np.zeros((n, STATE_SIZE)),
-            np.zeros((n, OBSTACLE_SIGNAL_SIZE)),
-            np.zeros((n, VELOCITY_SIGNAL_SIZE)),
+            at_rest,
+            readings,
             np.zeros((n, 3)),
             self._values,
-            self._radius,
-            self._reach,
             np.zeros((n, 3)),
         )
 
     def __call__(self, states, scene, u, goals, time: float) -> np.ndarray:
         """(N, 3): each vehicle's F_n at `states`, `scene`, `u` (the chain's
         arrays) toward `goals` at `time`."""
+        readings = np.empty_like(scene)
+        self._readings(states, scene, u, self._radius, self._reach, readings)
         forces = np.empty((len(states), 3))
         try:
             failed = self._forces(
-                self._bound,
-                states,
-                scene,
-                u,
-                goals,
-                self._values,
-                self._radius,
-                self._reach,
-                forces,
+                self._bound, states, readings, goals, self._values, forces
             )
         except Exception as e:  # raised within the field
             message = " ".join(str(e).split())
             said = f"raised {type(e).__name__}: {message}"
-            self._say(states, scene, u, goals, time, range(len(states)), said)
+            self._say(states, readings, goals, time, range(len(states)), said)
         if failed >= 0:
             said = "returned no 3 finite numbers (F_n [N])"
-            self._say(states, scene, u, goals, time, [failed], said)
+            self._say(states, readings, goals, time, [failed], said)
         return forces
 
-    def _say(self, states, scene, u, goals, time: float, vehicles, said: str):
+    def _say(self, states, readings, goals, time: float, vehicles, said: str):
         """Raises what `call_field` raises for the first of `vehicles` whose
-        field fails at those inputs in Python, as `systems` would fly it;
-        else UserFieldError saying what the compiled field `said`."""
+        field fails at those inputs in Python (at its `readings`), as
+        `systems` would fly it; else UserFieldError saying what the
+        compiled field `said`."""
         for k in vehicles:
-            obstacle = fleet.readings_of(k, states, scene, u, self._radius, self._reach)
             call_field(
                 self._field,
                 self._name,
                 self._gains,
                 goals[k],
                 states[k],
-                obstacle,
+                readings[k],
                 time,
             )
         raise UserFieldError(f"{self._name} at t = {time:.3f} s: {said} (compiled)")
