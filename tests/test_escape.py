@@ -13,7 +13,7 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.methods import METHODS
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import escape, escape_steering
-from mfi_drake.maths.layout import obstacle_signal
+from mfi_drake.maths.layout import OBSTACLE_COUNT, obstacle_signal
 from mfi_drake.world.nonconvex import THICKNESS, box, nonconvex_world
 
 from .conftest import SCENARIOS
@@ -22,6 +22,8 @@ RULE = escape.EscapeParams()
 RADIUS = VEHICLES["drake_default"].collision_radius
 GOAL = np.array([10.0, 0.0, 2.0])
 WALL = obstacle_signal([np.array([0.6, 0.0, 0.0])])  # a wall 0.6 m ahead (+x)
+PLANES = np.ones(OBSTACLE_COUNT)  # every reading a plane's (`corner_speed`)
+CURVED = np.zeros(OBSTACLE_COUNT)
 
 
 def step(memory, t, p, v=(1.0, 0.0, 0.0), obstacle=WALL):
@@ -126,7 +128,7 @@ def test_four_loops_exhaust_the_axes_and_the_memory_is_bounded():
         memory[escape.D_BEST] = np.linalg.norm(GOAL - p)
         memory = step(memory, RULE.stall_time + 1.0, p)
         assert memory.shape == (escape.MEMORY_SIZE,)
-    ring = memory[escape.RING :].reshape(escape.HITS, 4)
+    ring = memory[escape.RING : escape.RING + 4 * escape.HITS].reshape(escape.HITS, 4)
     assert np.isfinite(ring[:, :3]).all()  # every slot used, none added
 
 
@@ -196,24 +198,24 @@ def test_corner_speed_by_hand():
     corner = obstacle_signal([np.array([0.5, 0.0, 0.0]), np.array([0.0, 0.5, 0.0])])
     v = np.array([0.6, 0.6, 0.0])
     expected = rate * (0.5 - RADIUS) * np.sqrt(2.0)
-    assert escape_steering.corner_speed(corner, v, RADIUS, r_b, rate) == pytest.approx(
-        expected
-    )
+    assert escape_steering.corner_speed(
+        corner, v, RADIUS, r_b, rate, PLANES
+    ) == pytest.approx(expected)
     # Heading along +x: only the +x wall is approached, l_a·n = 1.
     along = escape_steering.corner_speed(
-        corner, np.array([1.0, 0.0, 0.0]), RADIUS, r_b, rate
+        corner, np.array([1.0, 0.0, 0.0]), RADIUS, r_b, rate, PLANES
     )
     assert along == pytest.approx(rate * (0.5 - RADIUS))
     corridor = obstacle_signal([np.array([0.0, 0.5, 0.0]), np.array([0.0, -0.5, 0.0])])
     one = obstacle_signal([np.array([0.5, 0.0, 0.0])])
     for readings, velocity in [(corridor, v), (one, v), (corner, -v)]:
         assert (
-            escape_steering.corner_speed(readings, velocity, RADIUS, r_b, rate)
+            escape_steering.corner_speed(readings, velocity, RADIUS, r_b, rate, PLANES)
             == np.inf
         )
     # Beyond r_b the second wall does not make a corner.
     far = obstacle_signal([np.array([0.5, 0.0, 0.0]), np.array([0.0, 0.9, 0.0])])
-    assert escape_steering.corner_speed(far, v, RADIUS, r_b, rate) == np.inf
+    assert escape_steering.corner_speed(far, v, RADIUS, r_b, rate, PLANES) == np.inf
 
 
 def test_a_passable_gap_is_no_corner():
@@ -237,15 +239,63 @@ def test_a_passable_gap_is_no_corner():
     # 120°: closest points apart = √3 · distance.
     wide = passable / np.sqrt(3.0) + 0.02
     assert apart(120, wide) > passable
-    assert escape_steering.corner_speed(pair(120, wide), v, RADIUS, r_b, rate) == np.inf
+    assert (
+        escape_steering.corner_speed(pair(120, wide), v, RADIUS, r_b, rate, PLANES)
+        == np.inf
+    )
     narrow = passable / np.sqrt(3.0) - 0.02
     assert escape_steering.corner_speed(
-        pair(120, narrow), v, RADIUS, r_b, rate
+        pair(120, narrow), v, RADIUS, r_b, rate, PLANES
     ) == pytest.approx(rate * (narrow - RADIUS) / np.cos(np.radians(60)))
     assert apart(95, 0.8) > passable
     assert escape_steering.corner_speed(
-        pair(95, 0.8), v, RADIUS, r_b, rate
+        pair(95, 0.8), v, RADIUS, r_b, rate, PLANES
     ) == pytest.approx(rate * (0.8 - RADIUS) / np.cos(np.radians(47.5)))
+    # Curved surfaces (two rocks) 95° apart with a passable gap: no corner;
+    # an impassable gap is one only while the vehicle closes on both.
+    assert (
+        escape_steering.corner_speed(pair(95, 0.8), v, RADIUS, r_b, rate, CURVED)
+        == np.inf
+    )
+    assert escape_steering.corner_speed(
+        pair(120, narrow), v, RADIUS, r_b, rate, CURVED
+    ) == pytest.approx(rate * (narrow - RADIUS) / np.cos(np.radians(60)))
+    across = np.array([np.cos(np.radians(-40)), np.sin(np.radians(-40)), 0.0])
+    assert (
+        escape_steering.corner_speed(
+            pair(120, narrow), across, RADIUS, r_b, rate, PLANES
+        )
+        == np.inf
+    )
+
+
+@pytest.mark.parametrize(
+    ("radius", "plane"), [(np.inf, 1.0), (3.0, 1.0), (0.5, 0.0), (0.25, 0.0)]
+)
+def test_the_memory_tells_a_plane_from_a_curved_surface(radius, plane):
+    """A vehicle moving 5 cm along x, 1.0 m from a surface's closest point
+    on +y: a wall's (radius inf) moves with it, a sphere's of radius ρ by
+    ρ/(ρ + 1.0) as much: a plane while that is at least EDGE_RATIO. A
+    surface seen anew is a plane until the motion tells (the brake's safe
+    side), and `plane_flags` finds a reading's flag by its point."""
+    centre = np.array([0.0, 1.0 + radius, 0.0]) if np.isfinite(radius) else None
+
+    def reading(p):
+        if centre is None:
+            return obstacle_signal([np.array([0.0, 1.0, 0.0])])
+        r = centre - p
+        return obstacle_signal([r - radius * r / np.linalg.norm(r)])
+
+    p0, p1 = np.zeros(3), np.array([0.05, 0.0, 0.0])
+    memory = escape.initial_memory(p0, GOAL)
+    memory = step(memory, 0.0, p0, obstacle=reading(p0))
+    assert memory[escape.PLANES][0] == 1.0
+    memory = step(memory, 0.01, p1, obstacle=reading(p1))
+    assert memory[escape.PLANES][0] == plane
+    assert escape.plane_flags(memory, p1, reading(p1))[0] == plane
+    # Standing still keeps what the motion told.
+    memory = step(memory, 0.02, p1, obstacle=reading(p1))
+    assert memory[escape.PLANES][0] == plane
 
 
 def test_the_escape_section_of_a_scenario_is_checked_and_flown():

@@ -57,7 +57,7 @@ obstacles that MFI's own fields (eq 11–15, with the velocity relative to
 each: `relative_escape_terms`) turn the vehicle round, not surfaces to
 follow, corners or jambs. A lone vehicle's readings are its scene's.
 
-The memory (`MEMORY_SIZE` = 55 floats, a fixed layout below) is bounded in
+The memory (`MEMORY_SIZE` = 70 floats, a fixed layout below) is bounded in
 size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
 
@@ -101,7 +101,13 @@ PASSED = slice(26, 29)  # the middle of the last gap passed (inf: none)
 LAST_POINTS = slice(29, 29 + 3 * OBSTACLE_COUNT)
 RING_NEXT = LAST_POINTS.stop  # the ring's next slot
 RING = RING_NEXT + 1  # HITS rows of [x, y, z, next axis]
-MEMORY_SIZE = RING + 4 * HITS
+# Every phase's record of the seen readings for the corner brake
+# (`record_surfaces`): p, each reading's closest point (inf where none) and
+# whether the surface there is locally a plane (1) or curved (0).
+SEEN_P = slice(RING + 4 * HITS, RING + 4 * HITS + 3)
+SEEN_POINTS = slice(SEEN_P.stop, SEEN_P.stop + 3 * OBSTACLE_COUNT)
+PLANES = slice(SEEN_POINTS.stop, SEEN_POINTS.stop + OBSTACLE_COUNT)
+MEMORY_SIZE = PLANES.stop
 
 E_Z = np.array([0.0, 0.0, 1.0])
 NO_GROUND = -math.inf  # the ground's height where there is none
@@ -152,6 +158,9 @@ def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
     memory[D_BEST] = _norm(goal - p)
     memory[PASSED] = np.inf
     memory[LAST_POINTS] = np.inf
+    memory[SEEN_P] = p
+    memory[SEEN_POINTS] = np.inf
+    memory[PLANES] = 1.0
     memory[RING : RING + 4 * HITS] = np.tile([np.inf, np.inf, np.inf, 0.0], HITS)
     return memory
 
@@ -394,6 +403,7 @@ def update_memory(
     phase = memory[PHASE]
     if phase == TRAPPED:
         return memory
+    record_surfaces(memory, p, obstacle)
     r_g = goal - p
     d = float(_norm(r_g))
     if phase == TOWARD:
@@ -448,6 +458,57 @@ def update_memory(
     if looped or grounded:
         _begin_axis(memory, int(memory[AXIS]) + 1, p, obstacle, goal, near, ground)
     return memory
+
+
+def record_surfaces(memory: np.ndarray, p: np.ndarray, obstacle) -> None:
+    """Remember p and each seen reading's closest point q, and whether the
+    surface at q is locally a plane: its closest point moved at least
+    EDGE_RATIO times the vehicle's motion ⟂ q − p since the last update (a
+    plane's moves as much, a sphere's of radius ρ at distance d ρ/(ρ + d) as
+    much: a plane at the scale of the vehicle's distance while d < ρ). The
+    same surface is the remembered point within |Δp| of q (projection onto
+    a convex shape is non-expansive); a surface seen anew, or without
+    motion across it, is taken for a plane (the corner brake's safe side)
+    until the motion tells."""
+    last = memory[SEEN_POINTS].reshape(OBSTACLE_COUNT, 3)
+    flags = memory[PLANES].copy()
+    moved = _norm(p - memory[SEEN_P])
+    points = np.full((OBSTACLE_COUNT, 3), np.inf)
+    planes = np.ones(OBSTACLE_COUNT)
+    for i, (r_o, seen) in enumerate(readings(obstacle)):
+        distance = _norm(r_o)
+        if seen < 0.5 or distance < 1e-9:
+            continue
+        q = p + r_o
+        points[i] = q
+        gaps = _row_norms(last - q)
+        j = int(np.argmin(gaps))
+        if not gaps[j] <= moved + 1e-9:
+            continue
+        n = r_o / distance
+        step = p - memory[SEEN_P]
+        along = _norm(step - (step @ n) * n)
+        if along > 1e-6:
+            planes[i] = 1.0 if gaps[j] >= EDGE_RATIO * along else 0.0
+        else:
+            planes[i] = flags[j]
+    memory[SEEN_P] = p
+    memory[SEEN_POINTS] = points.ravel()
+    memory[PLANES] = planes
+
+
+def plane_flags(memory: np.ndarray, p: np.ndarray, obstacle) -> np.ndarray:
+    """For each reading of `obstacle` (vehicle at p), whether its surface is
+    locally a plane by `record_surfaces`: the flag of the remembered point
+    nearest its closest point (1: a plane, where none is remembered)."""
+    last = memory[SEEN_POINTS].reshape(OBSTACLE_COUNT, 3)
+    flags = np.ones(OBSTACLE_COUNT)
+    for i, (r_o, _) in enumerate(readings(obstacle)):
+        gaps = _row_norms(last - (p + r_o))
+        j = int(np.argmin(gaps))
+        if np.isfinite(gaps[j]):
+            flags[i] = memory[PLANES][j]
+    return flags
 
 
 def _into_ground(memory, p, q, goal, ground) -> bool:

@@ -41,6 +41,7 @@ from mfi_drake.maths.escape import (
     _norm,
     axis,
     followed_point,
+    plane_flags,
 )
 from mfi_drake.maths.fields import (
     goal_attraction_field,
@@ -50,9 +51,9 @@ from mfi_drake.maths.fields import (
 from mfi_drake.maths.layout import POSITION, VELOCITY, readings
 from mfi_drake.maths.motion import relative_field
 
-# Two seen surfaces whose normals are at most ~100° apart meet in a corner
-# (a room's walls, a wall and the floor: 90°); between that and GAP_COSINE
-# only where the vehicle cannot pass between them (`corner_speed`).
+# Two seen planes whose normals are at most ~100° apart meet in a corner
+# (a room's walls, a wall and the floor: 90°); two surfaces up to GAP_COSINE
+# apart only where the vehicle cannot pass between them (`corner_speed`).
 CORNER_COSINE = -0.17
 
 
@@ -74,7 +75,12 @@ def corner_rate(k: float, v_d: float, r_b: float) -> float:
 
 
 def corner_speed(
-    obstacle, v: np.ndarray, collision_radius: float, r_b: float, rate: float
+    obstacle,
+    v: np.ndarray,
+    collision_radius: float,
+    r_b: float,
+    rate: float,
+    planes: np.ndarray,
 ) -> float:
     """The speed setpoint of eq 19 in a concave corner (math.inf where no
     limit applies): |v| ≤ rate · r / (l_a·n) for each surface the vehicle
@@ -84,19 +90,22 @@ def corner_speed(
     MFI's obstacle terms (eq 12, 14) are ⟂ v: they turn, they do not brake.
     Against one surface a turn of at most 90° leaves it, but in a concave
     corner (two or more seen surfaces within eq 15's range r_b, their
-    normals at most `CORNER_COSINE` apart, or not opposed (`GAP_COSINE`)
-    with closest points less than 2R + `GAP_MARGIN` apart) every tangent of
-    one surface leads into another, and in the corner of two walls and a
-    floor none is left: the vehicle must stop and turn back, and eq 19 is
-    the only brake."""
-    seen = [
-        r_o
-        for r_o, s in readings(obstacle)
-        if s > 0.5 and _norm(r_o) - collision_radius < r_b
-    ]
+    normals at most `CORNER_COSINE` apart and both locally planes, flag
+    `planes` (`escape.plane_flags`: a reading's), or not opposed
+    (`GAP_COSINE`) with closest points less than 2R + `GAP_MARGIN` apart
+    while the vehicle closes on both) every tangent of one surface leads
+    into another, and in the corner of two walls and a floor none is left:
+    the vehicle must stop and turn back, and eq 19 is the only brake. Two
+    rocks of a random field seen 95° apart leave a gap the vehicle passes,
+    and one groove it flies past is no corner: braking there lengthened
+    convex paths (docs/nonconvex.md)."""
+    seen = []
+    flat = []
+    for i, (r_o, s) in enumerate(readings(obstacle)):
+        if s > 0.5 and _norm(r_o) - collision_radius < r_b:
+            seen.append(r_o)
+            flat.append(planes[i] > 0.5)
     normals = [r_o / _norm(r_o) for r_o in seen]
-    # Two spheres with a passable gap between them are no corner: braking
-    # there only sent the vehicle round another side (longer paths).
     passable = 2.0 * collision_radius + GAP_MARGIN
     corner = False
     for i in range(len(normals)):
@@ -104,8 +113,12 @@ def corner_speed(
             cosine = normals[i] @ normals[j]
             corner = corner or (
                 cosine > CORNER_COSINE
+                and flat[i]
+                and flat[j]
                 or cosine > GAP_COSINE
                 and _norm(seen[i] - seen[j]) < passable
+                and v @ normals[i] > 0.0
+                and v @ normals[j] > 0.0
             )
     speed = float(_norm(v))
     if not corner or speed < 1e-9:
@@ -210,7 +223,8 @@ def steering(
     # the sides of the gap flown through, not a corner ahead: eq 14–15
     # guard each, as MFI's do in any gap.
     if rule.corner_brake and memory[PHASE] != PASS:
-        corner = corner_speed(scene, v, collision_radius, navigator.r_b, rate)
+        planes = plane_flags(memory, p, scene)
+        corner = corner_speed(scene, v, collision_radius, navigator.r_b, rate, planes)
         v_d = min(v_d, corner)
     return target, steered, v_d
 
