@@ -292,7 +292,10 @@ def test_the_memory_tells_a_plane_from_a_curved_surface(radius, plane):
     assert memory[escape.PLANES][0] == 1.0
     memory = step(memory, 0.01, p1, obstacle=reading(p1))
     assert memory[escape.PLANES][0] == plane
-    assert escape.plane_flags(memory, p1, reading(p1))[0] == plane
+    assert escape.plane_flags(memory, p1, reading(p1), RADIUS, 2.0)[0] == plane
+    assert (
+        escape.plane_flags(memory, p1, reading(p1), RADIUS, 0.5)[0] == 1.0
+    )  # beyond r_b
     # Standing still keeps what the motion told.
     memory = step(memory, 0.02, p1, obstacle=reading(p1))
     assert memory[escape.PLANES][0] == plane

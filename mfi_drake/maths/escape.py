@@ -497,13 +497,19 @@ def record_surfaces(memory: np.ndarray, p: np.ndarray, obstacle) -> None:
     memory[PLANES] = planes
 
 
-def plane_flags(memory: np.ndarray, p: np.ndarray, obstacle) -> np.ndarray:
-    """For each reading of `obstacle` (vehicle at p), whether its surface is
-    locally a plane by `record_surfaces`: the flag of the remembered point
-    nearest its closest point (1: a plane, where none is remembered)."""
+def plane_flags(
+    memory: np.ndarray, p: np.ndarray, obstacle, collision_radius: float, r_b: float
+) -> np.ndarray:
+    """For each seen reading of `obstacle` (vehicle at p) within eq 15's r_b
+    (those the corner brake reads), whether its surface is locally a plane
+    by `record_surfaces`: the flag of the remembered point nearest its
+    closest point (1: a plane, where none is remembered, and for the
+    readings not asked about)."""
     last = memory[SEEN_POINTS].reshape(OBSTACLE_COUNT, 3)
     flags = np.ones(OBSTACLE_COUNT)
-    for i, (r_o, _) in enumerate(readings(obstacle)):
+    for i, (r_o, seen) in enumerate(readings(obstacle)):
+        if seen < 0.5 or not _norm(r_o) - collision_radius < r_b:
+            continue
         gaps = _row_norms(last - (p + r_o))
         j = int(np.argmin(gaps))
         if np.isfinite(gaps[j]):

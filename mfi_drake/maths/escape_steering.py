@@ -223,7 +223,7 @@ def steering(
     # the sides of the gap flown through, not a corner ahead: eq 14–15
     # guard each, as MFI's do in any gap.
     if rule.corner_brake and memory[PHASE] != PASS:
-        planes = plane_flags(memory, p, scene)
+        planes = plane_flags(memory, p, scene, collision_radius, navigator.r_b)
         corner = corner_speed(scene, v, collision_radius, navigator.r_b, rate, planes)
         v_d = min(v_d, corner)
     return target, steered, v_d

@@ -2,7 +2,7 @@
 memory it builds in flight, for method "mfi-nc" (docs/nonconvex.md).
 
 The memory is the system's one discrete state group (`escape.MEMORY_SIZE`
-floats), set at initialization and updated by a per-step unrestricted
+floats), set at initialization and updated by a per-step discrete
 update event: a flight is deterministic and replayable, and the event
 forces no step boundaries, so until the first trap (or concave corner,
 below) the flight is MFI's step for step. Once the memory says TRAPPED
@@ -137,8 +137,10 @@ class EscapeNavigator(LeafSystem):
                 self.DeclareVectorInputPort("vehicle_readings", OBSTACLE_COUNT),
             )
             tickets |= {port.ticket() for port in self._relative[2:]}
-        self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
-        self.DeclarePerStepUnrestrictedUpdateEvent(self._update)
+        # Discrete, not unrestricted, updates: a new memory invalidates what
+        # reads it, not the plant's state (the sensor's query stays cached).
+        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
+        self.DeclarePerStepDiscreteUpdateEvent(self._update)
         declare_obstacle_force_ports(self, self._terms, tickets)
         self.DeclareVectorOutputPort(
             "escape",
@@ -176,11 +178,11 @@ class EscapeNavigator(LeafSystem):
             self.ground,
         )
 
-    def _initialize(self, context, state):
+    def _initialize(self, context, discrete_state):
         memory = self.initial_memory(self._state.Eval(context))
-        state.get_mutable_discrete_state(self._memory).SetFromVector(memory)
+        discrete_state.get_mutable_vector(self._memory).SetFromVector(memory)
 
-    def _update(self, context, state):
+    def _update(self, context, discrete_state):
         memory = self.memory(context)
         new = self.next_memory(
             memory,
@@ -188,7 +190,7 @@ class EscapeNavigator(LeafSystem):
             self._state.Eval(context),
             self._scene.Eval(context),
         )
-        state.get_mutable_discrete_state(self._memory).SetFromVector(new)
+        discrete_state.get_mutable_vector(self._memory).SetFromVector(new)
         if new[escape.PHASE] == escape.TRAPPED:
             return EventStatus.ReachedTermination(self, TRAPPED_MESSAGE)
         if np.array_equal(new, memory):
