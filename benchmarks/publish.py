@@ -636,9 +636,11 @@ def stale_table(root: str) -> str:
     stale = [s for s in published_sets(root) if "flown_by" in s]
     if not stale:
         return "None: every published set was flown by today's methods."
-    by = sorted({s["flown_by"] for s in stale})
-    paths = ", ".join(f"`{s['path']}`" for s in stale)
-    return f"{len(stale)} sets, flown by {', '.join(by)}: {paths}."
+    groups = []
+    for by in sorted({s["flown_by"] for s in stale}):
+        paths = [f"`{s['path']}`" for s in stale if s["flown_by"] == by]
+        groups.append(f"{len(paths)} flown by {by}: {', '.join(paths)}")
+    return f"{len(stale)} sets; " + "; ".join(groups) + "."
 
 
 TABLES: dict[str, Callable[[str], str]] = {

@@ -55,6 +55,19 @@ def test_a_stale_table_is_written_again(copy):
     assert readme.read_text() == text
 
 
+def test_the_stale_list_names_each_earlier_mfi_with_its_sets(copy):
+    """Sets flown by two earlier MFIs: each named with its own sets."""
+    manifest = copy / publish.MANIFEST
+    text = manifest.read_text().replace("flown_by = ", "#")
+    for path, by in [("docs/sweep", "A"), ("docs/results/moving", "B")]:
+        line = f'path = "{path}"\n'
+        text = text.replace(line, line + f'flown_by = "{by}"\n', 1)
+    manifest.write_text(text)
+    assert publish.stale_table(str(copy)) == (
+        "2 sets; 1 flown by A: `docs/sweep`; 1 flown by B: `docs/results/moving`."
+    )
+
+
 def test_git_keeps_exactly_the_published_files():
     kept = publish.kept_files()
     assert len(kept) == len(set(kept))
