@@ -230,24 +230,22 @@ def test_a_convex_mesh_of_a_world_is_its_hull_inline(tmp_path):
     np.testing.assert_allclose(got, expected, atol=1e-12)
 
 
-MOVING = SDF.replace("<static>true</static>", "")
 NO_COLLISION = SDF.split("<collision")[0] + "</link>\n  </model>\n</sdf>\n"
 PLANE = SDF.replace(
     "<sphere><radius>0.5</radius></sphere>",
-    "<plane><normal>0 0 1</normal><size>9 9</size></plane>",
+    "<plane><normal>0 1 0</normal><size>9 9</size></plane>",
 )
 BAD_WORLDS = [
     ("missing", None, "w.sdf", "no such file"),
-    ("not xml", "<sdf version='1.9'><model", "w.sdf", "not parsable"),
+    ("not xml", "<sdf version='1.9'><model", "w.sdf", "w.sdf:1: not well-formed XML"),
     ("no collision", NO_COLLISION, "w.sdf", "holds no collision geometry"),
-    ("moving", MOVING, "w.sdf", "model 'scene' moves"),
     (
         "plane",
         PLANE,
         "w.sdf",
-        "model 'scene' geometry 'ball': a HalfSpace is no obstacle shape",
+        "model 'scene' geometry 'ball': a plane is a ground only facing up (+z)",
     ),
-    ("suffix", SDF, "w.xml", "must be an SDFormat (.sdf) or URDF (.urdf) file"),
+    ("suffix", SDF, "w.txt", "must be a Gazebo world or model (.world, .sdf)"),
 ]
 
 

@@ -37,6 +37,7 @@ from mfi_drake.config.parameters import (
     validate_params,
 )
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.worlds import WorldPose, world_problems
 from mfi_drake.maths.escape import EscapeParams
 from mfi_drake.maths.point_maps import MAP_VOXEL
 
@@ -221,6 +222,10 @@ class Scenario:
     # them to `obstacles` and empties this (docs/usage.md, "Worlds"). Or a
     # point-cloud map (.ply, .pcd), its points thinned into map_points.
     world: str = ""
+    # Where the world file is placed in the scenario's frame, and the folders
+    # (relative to the YAML file) searched first for its `model://` includes.
+    world_pose: WorldPose = field(default_factory=WorldPose)
+    model_paths: list[str] = field(default_factory=list)
     # [m] the voxel edge a point-cloud map is thinned to (maths.point_maps).
     map_voxel: float = MAP_VOXEL
     # A point-cloud map's thinned points [m], world frame: what a map file
@@ -467,6 +472,11 @@ def check_scenario(scenario: Scenario, where: str) -> None:
         if not obstacle.name.isprintable():  # errors quote it in their one line
             fail(at, "name", obstacle.name, "must be one line of printable text")
     _check_dynamic(where, scenario)
+    _check_vector(where, "world_pose.position", scenario.world_pose.position)
+    _check_vector(where, "world_pose.rpy_deg", scenario.world_pose.rpy_deg)
+    model_paths, pose = scenario.model_paths, scenario.world_pose
+    for name, value, reason in world_problems(scenario.world, pose, model_paths):
+        fail(where, name, value, reason)
     _check_map(where, scenario)
 
 

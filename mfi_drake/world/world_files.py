@@ -1,17 +1,24 @@
 """Worlds from the files users already have: the `world:` of a scenario.
 
-An SDFormat (.sdf) or URDF (.urdf) file is parsed with Drake's own `Parser`
-into a throwaway MultibodyPlant and SceneGraph; every proximity (collision)
-geometry of its static models becomes one of the scenario's own obstacles
-(a mesh: its convex pieces, `decomposition`), at its pose in the world and
-named after its model and geometry. Loading
-appends them to `obstacles` and empties `world`, so the scenario that
-travels (as YAML, to a sweep's workers) carries the obstacles, not the path,
-and everything that reads `obstacles` reads the world too.
+A Gazebo world or model (.world, .sdf), a URDF (.urdf) or a MuJoCo MJCF
+(.xml) is rewritten as `sdformat.prepare` says (includes resolved, what
+does not fly read past, every model static where its file or its
+`<state>` puts it), parsed with Drake's own `Parser` into a throwaway
+MultibodyPlant and SceneGraph, and every proximity (collision) geometry
+becomes one of the scenario's own obstacles (a mesh: its convex pieces,
+`decomposition`), at its pose placed by `world_pose`, named after its model
+and geometry; a plane facing up is the scenario's ground. Loading appends
+them to `obstacles` and empties `world`, so the scenario that travels (as
+YAML, to a sweep's workers) carries the obstacles, not the path, and
+everything that reads `obstacles` reads the world too.
 """
 
 import dataclasses
+import logging
 import os
+import re
+import warnings
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.geometry import (
@@ -20,19 +27,23 @@ from pydrake.geometry import (
     Convex,
     Cylinder,
     Ellipsoid,
+    HalfSpace,
     Mesh,
     Role,
     Sphere,
 )
-from pydrake.math import RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.framework import DiagramBuilder
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.config.dynamic import Ground
+from mfi_drake.config.worlds import ScenarioWarning, WorldPose
 from mfi_drake.world.decomposition import mesh_obstacles, with_meshes
 from mfi_drake.world.obstacles import quiet_half_spaces
 from mfi_drake.world.point_clouds import with_map
+from mfi_drake.world.sdformat import MESH_MARK, Prepared, prepare
 
-WORLD_SUFFIXES = (".sdf", ".urdf")
+WORLD_SUFFIXES = (".sdf", ".world", ".urdf", ".xml", ".mjcf")
 # Decimals of a degree that a pose's roll, pitch and yaw are read to: the
 # angles recovered from Drake's rotation matrix carry ~1e-14° of rounding,
 # which 1e-12° removes and nothing more, so that a pose written in degrees
@@ -60,96 +71,209 @@ _SHAPES = {
 }
 
 
-def world_obstacles(path: str, label: str) -> list[sc.Obstacle]:
-    """Every collision geometry of the world file `path` as an obstacle,
-    named "world `label` model M geometry G". Raises ValueError, one line
-    naming what is wrong, for a file that is missing, unparsable, has a
-    model that moves or a geometry of no obstacle shape, or holds no
-    collision geometry."""
+@dataclass
+class World:
+    """What a world file holds: its obstacles, the height of its highest
+    upward plane (None: none) and what was read past, in one line."""
+
+    obstacles: list[sc.Obstacle]
+    ground: float | None
+    notes: str
+
+
+class _DrakeWarnings(logging.Handler):
+    """Drake's warnings while a file is parsed, gathered for one line."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(" ".join(record.getMessage().split()))
+
+
+def _parse(path: str, prepared: Prepared, plant, heard: _DrakeWarnings) -> list:
+    """The model instances Drake's Parser adds for the file; RuntimeError
+    turned into ValueError naming the file and line of its cause."""
+    from pydrake.multibody.parsing import Parser
+
+    logger = logging.getLogger("drake")
+    logger.addHandler(heard)
+    propagates, logger.propagate = logger.propagate, False
+    try:
+        parser = Parser(plant)
+        if prepared.kind == "mjcf":
+            return parser.AddModels(path)
+        return parser.AddModelsFromString(prepared.text, prepared.kind)
+    except RuntimeError as e:
+        lines = [line for line in str(e).splitlines() if line.strip()] or ["?"]
+        cause = lines[0]
+        found = re.search(r":(\d+): (?:error: )?(.*)", cause)
+        if found and prepared.kind != "mjcf":
+            cause = f"{prepared.source(int(found[1]))}: {found[2]}"
+        elif not cause.startswith(path):
+            cause = f"{path}: {cause}"
+        if heard.messages:  # Drake's own cause is often a warning before it
+            cause += f" (Drake warned: {heard.messages[-1]})"
+        raise ValueError(cause) from None
+    finally:
+        logger.removeHandler(heard)
+        logger.propagate = propagates
+
+
+def world_obstacles(
+    path: str,
+    label: str,
+    model_paths: list[str] = (),
+    X_SW: RigidTransform | None = None,
+) -> World:
+    """Every collision geometry of the world file `path`, placed by X_SW
+    (the file's frame in the scenario's), as an obstacle named "world
+    `label` model M geometry G"; `model_paths` are searched first for its
+    includes. Raises ValueError, one line naming the file (and the line
+    of the cause), for a file that is missing, unparsable, or has a
+    geometry of no obstacle shape, or that holds no collision geometry."""
     if not path.endswith(WORLD_SUFFIXES):
         raise ValueError(
-            "must be an SDFormat (.sdf) or URDF (.urdf) file, or a point-cloud "
-            "map (.ply, .pcd)"
+            "must be a Gazebo world or model (.world, .sdf), a URDF (.urdf), "
+            "an MJCF (.xml) file, or a point-cloud map (.ply, .pcd)"
         )
     if not os.path.isfile(path):
         raise ValueError(f"no such file ({path})")
+    X_SW = X_SW if X_SW is not None else RigidTransform()
+    prepared = prepare(path, list(model_paths))
     # Imported here: pydrake.multibody's import costs ~0.2 s that a scenario
     # without a world does not pay.
-    from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 
-    quiet_half_spaces()  # a plane is refused below, in one line
+    quiet_half_spaces()  # a plane is the ground
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
+    heard = _DrakeWarnings()
+    _parse(path, prepared, plant, heard)
     try:
-        models = Parser(plant).AddModels(path)
         plant.Finalize()
-    except RuntimeError as e:  # Drake's message names the line
-        raise ValueError(f"not parsable: {str(e).splitlines()[0]}") from None
-    welded = {body.index() for body in plant.GetBodiesWeldedTo(plant.world_body())}
-    for model in models:
-        for index in plant.GetBodyIndices(model):
-            if index not in welded:
-                name = plant.GetModelInstanceName(model)
-                body = plant.get_body(index).name()
-                raise ValueError(
-                    f"model {name!r} moves (its link {body!r} is not welded to "
-                    "the world): a world's models must be static"
-                )
+    except RuntimeError as e:
+        raise ValueError(f"{path}: {str(e).splitlines()[0]}") from None
+    # Every model stands where its file puts it (its joints at their
+    # defaults): the default context's poses.
     diagram = builder.Build()
     context = scene_graph.GetMyContextFromRoot(diagram.CreateDefaultContext())
     query = scene_graph.get_query_output_port().Eval(context)
-    inspector = query.inspector()
-    obstacles = []
-    for geometry in inspector.GetAllGeometryIds(Role.kProximity):
-        body = plant.GetBodyFromFrameId(inspector.GetFrameId(geometry))
-        model = plant.GetModelInstanceName(body.model_instance())
-        name = inspector.GetName(geometry).removeprefix(f"{model}::")
-        where = f"world {label!r} model {model!r} geometry {name!r}"
-        shape = inspector.GetShape(geometry)
-        if type(shape) not in (*_SHAPES, Mesh):
-            raise ValueError(
-                f"model {model!r} geometry {name!r}: a {type(shape).__name__} "
-                "is no obstacle shape (a plane is given as `ground:`)"
-            )
-        X_WG = query.GetPoseInWorld(geometry)
-        rpy = RollPitchYaw(X_WG.rotation())
-        obstacle = sc.Obstacle(
-            position=[float(x) for x in X_WG.translation()],
-            rpy_deg=[
-                round(float(x), RPY_DECIMALS) + 0.0 for x in np.degrees(rpy.vector())
-            ],
-            name=where,
-        )
-        if isinstance(shape, Mesh):
-            mesh = str(shape.source().path())
-            try:
-                obstacles += mesh_obstacles(obstacle, mesh, shape.scale3(), where)
-            except ValueError as e:
-                raise ValueError(f"model {model!r} geometry {name!r}: {e}") from None
+    obstacles, grounds = [], []
+    for geometry in query.inspector().GetAllGeometryIds(Role.kProximity):
+        found = _obstacles(plant, query, geometry, X_SW, prepared, label)
+        if isinstance(found, float):
+            grounds.append(found)
         else:
-            shape = _SHAPES[type(shape)](shape)
-            obstacles.append(dataclasses.replace(obstacle, shape=shape))
-    if not obstacles:
+            obstacles += found
+    if not obstacles and not grounds:
         raise ValueError("holds no collision geometry")
-    return obstacles
+    notes = prepared.summary()
+    if heard.messages:
+        notes += "; " if notes else ""
+        notes += (
+            f"{len(heard.messages)} Drake warnings (the first: {heard.messages[0]})"
+        )
+    return World(obstacles, max(grounds, default=None), notes)
+
+
+def _obstacles(
+    plant, query, geometry, X_SW: RigidTransform, prepared: Prepared, label: str
+) -> list[sc.Obstacle] | float:
+    """One collision geometry as obstacles (a mesh: its convex pieces), or
+    a plane facing up as its height."""
+    inspector = query.inspector()
+    body = plant.GetBodyFromFrameId(inspector.GetFrameId(geometry))
+    model = plant.GetModelInstanceName(body.model_instance())
+    name = inspector.GetName(geometry).removeprefix(f"{model}::")
+    mesh = MESH_MARK.search(name)
+    if mesh:
+        name = name[: mesh.start()] + mesh[2]
+    where = f"world {label!r} model {model!r} geometry {name!r}"
+    shape = inspector.GetShape(geometry)
+    X_SG = X_SW @ query.GetPoseInWorld(geometry)
+    if isinstance(shape, HalfSpace):
+        if X_SG.rotation().matrix()[2, 2] < 1.0 - 1e-9:
+            raise ValueError(
+                f"model {model!r} geometry {name!r}: a plane is a ground only "
+                "facing up (+z)"
+            )
+        return float(X_SG.translation()[2])
+    if type(shape) not in (*_SHAPES, Mesh):
+        raise ValueError(
+            f"model {model!r} geometry {name!r}: a {type(shape).__name__} "
+            "is no obstacle shape"
+        )
+    rpy = RollPitchYaw(X_SG.rotation())
+    obstacle = sc.Obstacle(
+        position=[float(x) for x in X_SG.translation()],
+        rpy_deg=[round(float(x), RPY_DECIMALS) + 0.0 for x in np.degrees(rpy.vector())],
+        name=where,
+    )
+    if mesh or isinstance(shape, Mesh):
+        path, scale = (
+            prepared.meshes[int(mesh[1])]
+            if mesh
+            else (str(shape.source().path()), shape.scale3())
+        )
+        try:
+            return mesh_obstacles(obstacle, path, scale, where)
+        except ValueError as e:
+            raise ValueError(f"model {model!r} geometry {name!r}: {e}") from None
+    return [dataclasses.replace(obstacle, shape=_SHAPES[type(shape)](shape))]
+
+
+def _placed(points: list[list[float]], X_SW: RigidTransform) -> list[list[float]]:
+    """A cloud's points (n, 3) in the scenario's frame."""
+    return (X_SW.multiply(np.asarray(points, float).T).T).tolist()
 
 
 def with_files(scenario: sc.Scenario, where: str) -> sc.Scenario:
     """`scenario` as it flies anywhere: its world file's obstacles after its
-    own, `world` emptied (so it resolves once), and each `!Mesh` replaced by
-    its convex pieces (`decomposition.with_meshes`); itself without either.
-    A point-cloud map instead fills `map_points` (`point_clouds.with_map`).
-    Raises ScenarioError naming `where`, the field and the file."""
+    own (its upward plane its ground, unless it has one: then its own is
+    kept and a warning says so), `world` and `world_pose` emptied (so it
+    resolves once), and each `!Mesh` replaced by its convex pieces
+    (`decomposition.with_meshes`); itself without either. A point-cloud map
+    instead fills `map_points` (`point_clouds.with_map`), placed by
+    `world_pose`. What a world file holds and a flight does not read is
+    one ScenarioWarning. Raises ScenarioError naming `where`, the field and
+    the file."""
+    pose = scenario.world_pose
+    X_SW = RigidTransform(RollPitchYaw(np.radians(pose.rpy_deg)), pose.position)
     if scenario.world.endswith(sc.MAP_SUFFIXES):
         scenario = with_map(scenario, where)
+        points = _placed(scenario.map_points, X_SW)
+        scenario = dataclasses.replace(
+            scenario, map_points=points, world_pose=WorldPose()
+        )
     if scenario.world:
         path = os.path.join(scenario.base_dir, scenario.world)
+        folders = [os.path.join(scenario.base_dir, f) for f in scenario.model_paths]
         try:
-            found = world_obstacles(path, scenario.world)
-        except ValueError as e:
-            sc.fail(where, "world", scenario.world, str(e))
+            found = world_obstacles(path, scenario.world, folders, X_SW)
+        except ValueError as e:  # files beside the YAML named as the YAML names them
+            reason = str(e).replace(os.path.join(scenario.base_dir, ""), "")
+            sc.fail(where, "world", scenario.world, reason)
+        notes, ground = [found.notes] if found.notes else [], scenario.ground
+        if found.ground is not None and ground is not None:
+            notes.append(
+                f"its ground plane at z = {found.ground:g} m is not read: the "
+                f"scenario's ground (z = {ground.height:g} m) is kept"
+            )
+        elif found.ground is not None:
+            ground = Ground(height=found.ground)
+        if notes:
+            warnings.warn(
+                f"{where}: world = {scenario.world!r}: {'; '.join(notes)}",
+                ScenarioWarning,
+                stacklevel=2,
+            )
         scenario = dataclasses.replace(
-            scenario, obstacles=[*scenario.obstacles, *found], world=""
+            scenario,
+            obstacles=[*scenario.obstacles, *found.obstacles],
+            ground=ground,
+            world="",
+            world_pose=WorldPose(),
         )
     return with_meshes(scenario, where)

@@ -1,0 +1,478 @@
+"""World files as their tools ship them, made into what Drake's Parser reads.
+
+A Gazebo world (.world, .sdf; Classic or Sim) or a URDF is read with line
+numbers and rewritten before Drake sees it: what flies is a world's
+collision geometry at its pose, so only that is kept.
+
+- `<include>` of `model://NAME`, `package://PKG/...`, a file or a folder
+  is replaced by the model it names, as Gazebo does: a model folder's
+  model.config names its SDFormat file (the highest version), else
+  model.sdf; the include's <name>, <pose> and <static> override the
+  model's own. Includes nest; a relative URI resolves against the folder
+  of the file that holds it. `model://` is searched in `model_paths`, then
+  GAZEBO_MODEL_PATH, GZ_SIM_RESOURCE_PATH, IGN_GAZEBO_RESOURCE_PATH, then
+  beside the file that names it; `package://` in `model_paths`, then
+  ROS_PACKAGE_PATH.
+- Visuals, sensors, plugins, lights, actors, GUI, physics, inertials,
+  joints... are read past (counted), as is every element and attribute
+  SDFormat does not define (Bullet's `concave="yes"`): they never block
+  a load, and a URI only a visual uses is never resolved.
+- Every model is static, its links where its file (or its world's
+  `<state>`, applied here as Gazebo applies it) puts them; a URDF's joints
+  are fixed at zero. Inertia never matters.
+- A collision mesh (any format) is replaced by a placeholder box whose
+  name `MESH_MARK` numbers it: Drake reads no mesh file, and
+  `world_files` decomposes the mesh itself (`Prepared.meshes`).
+
+Errors are one line naming the file and line of their cause (ValueError).
+"""
+
+import math
+import os
+import re
+import xml.etree.ElementTree as ET
+import xml.parsers.expat
+from bisect import bisect_right
+from collections import Counter
+from dataclasses import dataclass, field
+
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+
+MESH_MARK = re.compile(r"__mfi_mesh_(\d+)__(.*)$")
+MODEL_ENV = ("GAZEBO_MODEL_PATH", "GZ_SIM_RESOURCE_PATH", "IGN_GAZEBO_RESOURCE_PATH")
+CONVEX = "drake:declare_convex"  # Drake's: a mesh flown as its hull
+MAX_DEPTH = 32  # includes nested deeper are a loop
+# What Drake needs of SDFormat and URDF: the children and attributes kept.
+SDF = {
+    "sdf": ({"world", "model"}, {"version"}),
+    "world": ({"model", "include", "frame"}, {"name"}),
+    "model": ({"static", "pose", "link", "model", "include", "frame"}, {"name"}),
+    "link": ({"pose", "collision"}, {"name"}),
+    "collision": ({"pose", "geometry"}, {"name"}),
+    "frame": ({"pose"}, {"name", "attached_to"}),
+    "geometry": (
+        {"box", "sphere", "cylinder", "capsule", "ellipsoid", "mesh", "plane"},
+        set(),
+    ),
+    "box": ({"size"}, set()),
+    "sphere": ({"radius"}, set()),
+    "cylinder": ({"radius", "length"}, set()),
+    "capsule": ({"radius", "length"}, set()),
+    "ellipsoid": ({"radii"}, set()),
+    "mesh": ({"uri", "scale", CONVEX}, set()),
+    "plane": ({"normal", "size"}, set()),
+    "pose": (set(), {"relative_to", "degrees", "rotation_format"}),
+}
+URDF = {
+    "robot": ({"link", "joint"}, {"name"}),
+    "link": ({"collision"}, {"name"}),
+    "collision": ({"origin", "geometry"}, {"name"}),
+    "geometry": ({"box", "sphere", "cylinder", "capsule", "mesh"}, set()),
+    "box": (set(), {"size"}),
+    "sphere": (set(), {"radius"}),
+    "cylinder": (set(), {"radius", "length"}),
+    "capsule": (set(), {"radius", "length"}),
+    "mesh": ({CONVEX}, {"filename", "scale"}),
+    "origin": (set(), {"xyz", "rpy"}),
+    "joint": ({"origin", "parent", "child"}, {"name", "type"}),
+    "parent": (set(), {"link"}),
+    "child": (set(), {"link"}),
+}
+# Elements either format defines that a flight does not read: counted in
+# the one line that says what was read past, not warned about.
+_KNOWN = (
+    "visual sensor plugin light actor gui scene physics audio_source audio_sink "
+    "inertial joint gripper self_collide allow_auto_disable enable_wind kinematic "
+    "gravity velocity_decay surface laser_retro max_contacts spherical_coordinates "
+    "magnetic_field atmosphere wind road population battery projector "
+    "particle_emitter must_be_base_link heightmap polyline image submesh state "
+    "gazebo transmission material limit axis axis2 dynamics safety_controller "
+    "calibration mimic contact uri name static placement_frame"
+)
+KNOWN = frozenset(_KNOWN.split())
+SHOWN = ("plugin", "light", "actor", "sensor", "visual", "gui", "heightmap")
+
+
+@dataclass
+class Prepared:
+    """A world file rewritten for Drake: `text` in format `kind` ("sdf",
+    "urdf"), the collision meshes its placeholders number (absolute path,
+    scale), what was read past, and where each element of `text` came from."""
+
+    text: str = ""
+    kind: str = "sdf"
+    meshes: list[tuple[str, list[float]]] = field(default_factory=list)
+    read_past: Counter = field(default_factory=Counter)
+    unknown: Counter = field(default_factory=Counter)
+    starts: list[int] = field(default_factory=list)  # line of each element
+    sources: list[str] = field(default_factory=list)  # its "file:line"
+
+    def source(self, line: int) -> str:
+        """The "file:line" of what is on line `line` of `text`."""
+        k = bisect_right(self.starts, line) - 1
+        return self.sources[max(k, 0)]
+
+    def summary(self) -> str:
+        """What was read past, in one line ("" for nothing worth saying)."""
+        parts = [f"{self.read_past[k]} {k}" for k in SHOWN if self.read_past[k]]
+        said = ", ".join(parts)
+        if self.unknown:
+            names = ", ".join(f"{k} ({n}×)" for k, n in sorted(self.unknown.items()))
+            said += ("; " if said else "") + f"not SDFormat or URDF: {names}"
+        return f"read past {said}" if said else ""
+
+
+def read_xml(path: str, text: str | None = None) -> tuple[ET.Element, dict]:
+    """The XML file `path` (or `text`, named `path`) as elements, and each
+    element's "file:line". Raises ValueError naming the line."""
+    origins: dict[ET.Element, str] = {}
+    stack: list[ET.Element] = []
+    root: list[ET.Element] = []
+    parser = xml.parsers.expat.ParserCreate()
+
+    def start(tag: str, attrs: dict) -> None:
+        element = ET.Element(tag, attrs)
+        origins[element] = f"{path}:{parser.CurrentLineNumber}"
+        (stack[-1].append if stack else root.append)(element)
+        stack.append(element)
+
+    def text_of(data: str) -> None:
+        if stack:  # only a leaf's text is read: children's tails are not
+            stack[-1].text = (stack[-1].text or "") + data
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = lambda tag: stack.pop()
+    parser.CharacterDataHandler = text_of
+    parser.EntityDeclHandler = _no_entities
+    try:
+        if text is None:
+            with open(path, "rb") as f:
+                parser.ParseFile(f)
+        else:
+            parser.Parse(text, True)
+    except xml.parsers.expat.ExpatError as e:
+        raise ValueError(f"{path}:{e.lineno}: not well-formed XML: {e}") from None
+    except (OSError, RecursionError) as e:
+        raise ValueError(f"{path}: not readable: {e}") from None
+    return root[0], origins
+
+
+def _no_entities(name, *_) -> None:
+    """Entity declarations are refused: expanded, a few lines can make
+    gigabytes (an XML bomb)."""
+    raise xml.parsers.expat.ExpatError(f"entity {name!r} declared: not read")
+
+
+def pose_matrix(element: ET.Element | None, where: str) -> RigidTransform:
+    """An SDFormat <pose> (x y z roll pitch yaw, radians unless
+    degrees="true", or x y z qx qy qz qw) as a transform."""
+    if element is None:
+        return RigidTransform()
+    values = _numbers((element.text or "0 0 0 0 0 0"), where, "pose")
+    if len(values) == 7 and element.get("rotation_format") == "quat_xyzw":
+        x, y, z, w = values[3:]
+        norm = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
+        rotation = RotationMatrix(Quaternion(w / norm, x / norm, y / norm, z / norm))
+        return RigidTransform(rotation, values[:3])
+    if len(values) != 6:
+        raise ValueError(f"{where}: a pose must hold 6 numbers, not {element.text!r}")
+    angles = values[3:]
+    if element.get("degrees") == "true":
+        angles = [math.radians(a) for a in angles]
+    return RigidTransform(RollPitchYaw(angles), values[:3])
+
+
+def _numbers(text: str, where: str, what: str) -> list[float]:
+    try:
+        values = [float(x) for x in text.split()]
+    except ValueError:
+        values = [math.nan]
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{where}: {what} must hold finite numbers, not {text!r}")
+    return values
+
+
+def _pose_text(X: RigidTransform) -> str:
+    values = [*X.translation(), *RollPitchYaw(X.rotation()).vector()]
+    return " ".join(repr(float(v)) for v in values)
+
+
+class _Reader:
+    """One world file being rewritten: the folders searched, what was read
+    past, each element's origin, and the files being included (a loop)."""
+
+    def __init__(self, path: str, model_paths: list[str]) -> None:
+        self.path = path
+        self.model_paths = list(model_paths)
+        self.out = Prepared()
+        self.origins: dict[ET.Element, str] = {}
+        self.including: list[str] = []
+
+    def keep(self, element: ET.Element, rules: dict, folder: str) -> ET.Element | None:
+        """A copy of `element` with the children and attributes `rules`
+        keep (what it does not is counted), includes expanded; None for a
+        collision with no geometry left or a model with no link."""
+        children, attributes = rules.get(element.tag, (set(), set()))
+        copy = ET.Element(element.tag)
+        self.origins[copy] = self.origins[element]
+        for key, value in element.attrib.items():
+            if key in attributes or key.startswith("xmlns"):
+                copy.set(key, value)
+            elif key != "merge":  # a merged include flies as a nested one
+                self.out.unknown[f"{element.tag}@{key}"] += 1
+        if not children:
+            copy.text = " ".join((element.text or "").split())
+        for child in element:
+            if child.tag == "include" and "include" in children:
+                kept = self.include(child, folder)
+            elif child.tag in children:
+                kept = self.keep(child, rules, folder)
+            else:
+                self.out.read_past[child.tag] += 1
+                if child.tag not in KNOWN:
+                    self.out.unknown[f"<{child.tag}>"] += 1
+                continue
+            if kept is not None:
+                copy.append(kept)
+        return self.finish(copy, element, folder)
+
+    def finish(
+        self, copy: ET.Element, element: ET.Element, folder: str
+    ) -> ET.Element | None:
+        """What each kind of element becomes once its children are kept."""
+        if copy.tag == "collision":
+            return self.collision(copy, folder)
+        if copy.tag == "joint":  # a URDF's: held at zero
+            copy.set("type", "fixed")
+        if copy.tag == "model":
+            if not any(c.tag in ("link", "model") for c in copy):
+                self.out.read_past["model with no link"] += 1
+                return None
+            for old in copy.findall("static"):
+                copy.remove(old)
+            static = ET.SubElement(copy, "static")
+            static.text = "true"
+            self.origins[static] = self.origins[copy]
+        if copy.tag == "world":
+            self.state(copy, element, folder)
+        return copy
+
+    def state(self, world: ET.Element, source: ET.Element, folder: str) -> None:
+        """The world's <state> applied as Gazebo applies it: its inserted
+        models added, its deleted ones removed, and each model's (and
+        link's) pose, given in the world frame, the model's own."""
+        for state in source.findall("state"):
+            for model in state.findall("insertions/model"):
+                kept = self.keep(model, SDF, folder)
+                if kept is not None:
+                    world.append(kept)
+            for name in state.findall("deletions/name"):
+                for model in _named(world, "model", (name.text or "").strip()):
+                    world.remove(model)
+            for model in state.findall("model"):
+                self.model_state(world, model, RigidTransform())
+
+    def model_state(
+        self, parent: ET.Element, state: ET.Element, X_WP: RigidTransform
+    ) -> None:
+        """One model's state: `X_WP` is its parent's pose in the world."""
+        models = _named(parent, "model", state.get("name", ""))
+        pose = state.find("pose")
+        if not models or pose is None:  # Gazebo ignores what it does not have
+            return
+        X_WM = pose_matrix(pose, self.origins[pose])
+        self.set_pose(models[0], X_WP.inverse() @ X_WM, pose)
+        for link in state.findall("link"):
+            links = _named(models[0], "link", link.get("name", ""))
+            if links and link.find("pose") is not None:
+                X_WL = pose_matrix(link.find("pose"), self.origins[link])
+                self.set_pose(links[0], X_WM.inverse() @ X_WL, link)
+        for nested in state.findall("model"):
+            self.model_state(models[0], nested, X_WM)
+
+    def set_pose(self, element: ET.Element, X: RigidTransform, cause) -> None:
+        for old in element.findall("pose"):
+            element.remove(old)
+        pose = ET.Element("pose")
+        pose.text = _pose_text(X)
+        self.origins[pose] = self.origins[cause]
+        element.insert(0, pose)
+
+    def include(self, element: ET.Element, folder: str) -> ET.Element:
+        """The model an <include> names, with its overrides."""
+        where = self.origins[element]
+        uri = (element.findtext("uri") or "").strip()
+        if not uri:
+            raise ValueError(f"{where}: an <include> needs a <uri>")
+        target = self.resolve(uri, folder, where)
+        if os.path.isdir(target):
+            target = model_file(target, where)
+        if len(self.including) >= MAX_DEPTH or target in self.including:
+            raise ValueError(f"{where}: {uri} includes itself")
+        root, origins = read_xml(target)
+        self.origins.update(origins)
+        model = root.find("model") if root.tag == "sdf" else None
+        if model is None:
+            raise ValueError(f"{origins[root]}: {uri} holds no SDFormat <model>")
+        self.including.append(target)
+        model = self.keep(model, SDF, os.path.dirname(target))
+        self.including.pop()
+        for key in ("name", "pose", "static"):
+            override = element.find(key)
+            if override is None:
+                continue
+            if key == "name":
+                model.set("name", " ".join((override.text or "").split()))
+                continue
+            for old in model.findall(key):
+                model.remove(old)
+            model.insert(0, self.keep(override, SDF, folder))
+        return model
+
+    def resolve(self, uri: str, folder: str, where: str) -> str:
+        """The absolute path a URI names, or ValueError naming the model or
+        package and the folders searched."""
+        scheme, sep, rest = uri.partition("://")
+        if not sep:
+            return os.path.normpath(os.path.join(folder, uri))
+        if scheme == "file":
+            return rest
+        name, _, inner = rest.partition("/")
+        if scheme == "model":
+            folders = [*self.model_paths, *_env(MODEL_ENV)]
+            folders += [os.path.dirname(folder), os.path.dirname(self.path)]
+            for base in folders:
+                if os.path.isdir(os.path.join(base, name)):
+                    return os.path.join(base, name, inner)
+            what = f"model {name!r} ({uri})"
+        elif scheme == "package":
+            folders = [*self.model_paths, *_env(("ROS_PACKAGE_PATH",))]
+            found = _find_package(name, folders)
+            if found:
+                return os.path.join(found, inner)
+            what = f"package {name!r} ({uri})"
+        else:
+            raise ValueError(
+                f"{where}: {uri}: {scheme}:// is not fetched; download the model "
+                "and list its folder in model_paths"
+            )
+        searched = ", ".join(dict.fromkeys(folders)) or "no folder"
+        raise ValueError(f"{where}: {what} not found in: {searched}")
+
+    def collision(self, element: ET.Element, folder: str) -> ET.Element | None:
+        """A kept collision, its mesh replaced by a numbered placeholder box
+        (the mesh's file resolved and checked); None with no geometry left."""
+        geometry = element.find("geometry")
+        if geometry is None or not len(geometry):
+            self.out.read_past["collision with no geometry read"] += 1
+            return None
+        mesh = geometry[0]
+        if mesh.tag != "mesh":
+            return element
+        where = self.origins[mesh]
+        uri = (mesh.findtext("uri") or mesh.get("filename") or "").strip()
+        path = self.resolve(uri, folder, where)
+        if not os.path.isfile(path):
+            raise ValueError(f"{where}: mesh {uri!r}: no such file ({path})")
+        if mesh.find(CONVEX) is not None:  # Drake reads it as its hull
+            if self.out.kind == "urdf":
+                mesh.set("filename", f"file://{path}")
+            else:
+                mesh.find("uri").text = f"file://{path}"
+            return element
+        scale = mesh.findtext("scale") or mesh.get("scale") or "1"
+        scale = _numbers(scale, where, "a mesh's scale")
+        if len(scale) not in (1, 3):
+            raise ValueError(f"{where}: a mesh's scale must hold 1 or 3 numbers")
+        name = element.get("name", "collision")
+        element.set("name", f"__mfi_mesh_{len(self.out.meshes)}__{name}")
+        self.out.meshes.append((path, scale))
+        geometry.remove(mesh)
+        box = ET.SubElement(geometry, "box")
+        if self.out.kind == "urdf":
+            box.set("size", "1 1 1")
+        else:
+            ET.SubElement(box, "size").text = "1 1 1"
+        for added in box.iter():
+            self.origins[added] = where
+        return element
+
+
+def _named(parent: ET.Element, tag: str, name: str) -> list[ET.Element]:
+    return [e for e in parent.findall(tag) if e.get("name") == name]
+
+
+def prepare(path: str, model_paths: list[str]) -> Prepared:
+    """The world file `path` rewritten for Drake (`Prepared.kind` "mjcf":
+    a MuJoCo file, which Drake reads as it is). Raises ValueError, one line
+    naming a file and line."""
+    root, origins = read_xml(path)
+    rules = {"sdf": SDF, "robot": URDF}.get(root.tag)
+    if root.tag == "mujoco":
+        return Prepared(kind="mjcf")
+    if rules is None:
+        raise ValueError(
+            f"{origins[root]}: the root <{root.tag}> is not SDFormat (<sdf>), "
+            "URDF (<robot>) or MJCF (<mujoco>)"
+        )
+    reader = _Reader(path, model_paths)
+    reader.origins.update(origins)
+    reader.out.kind = "sdf" if rules is SDF else "urdf"
+    kept = reader.keep(root, rules, os.path.dirname(path))
+    ET.indent(kept)
+    out = reader.out
+    out.text = ET.tostring(kept, encoding="unicode")
+    again, lines = read_xml("generated", out.text)
+    out.starts = [int(lines[e].rsplit(":", 1)[1]) for e in again.iter()]
+    out.sources = [reader.origins[e] for e in kept.iter()]
+    return out
+
+
+def _env(names: tuple[str, ...]) -> list[str]:
+    return [f for n in names for f in os.environ.get(n, "").split(":") if f]
+
+
+def _find_package(name: str, folders: list[str]) -> str:
+    """A folder named `name`, or holding a package.xml naming it, at most
+    three levels under one of `folders` (ROS_PACKAGE_PATH's roots)."""
+    for base in folders:
+        if os.path.basename(os.path.normpath(base)) == name:
+            return base
+        for top, dirs, files in os.walk(base):
+            if os.path.basename(top) == name and top != base:
+                return top
+            if "package.xml" in files:
+                try:
+                    root, _ = read_xml(os.path.join(top, "package.xml"))
+                except ValueError:
+                    continue
+                if (root.findtext("name") or "").strip() == name:
+                    return top
+            if top.count(os.sep) - base.count(os.sep) >= 3:
+                dirs.clear()
+    return ""
+
+
+def model_file(folder: str, where: str) -> str:
+    """The SDFormat file of a Gazebo model folder: the one its model.config
+    names (of several <sdf>, the highest version), else model.sdf."""
+    config = os.path.join(folder, "model.config")
+    if os.path.isfile(config):
+        root, _ = read_xml(config)
+        named = [
+            (e.get("version", "0"), (e.text or "").strip()) for e in root.iter("sdf")
+        ]
+        named = [(v, f) for v, f in named if f]
+        if named:
+            version = max(named, key=lambda vf: _version(vf[0]))
+            return os.path.join(folder, version[1])
+    if os.path.isfile(os.path.join(folder, "model.sdf")):
+        return os.path.join(folder, "model.sdf")
+    raise ValueError(
+        f"{where}: model folder {folder} holds no model.config or model.sdf"
+    )
+
+
+def _version(text: str) -> tuple[int, ...]:
+    return tuple(int(x) for x in re.findall(r"\d+", text))
