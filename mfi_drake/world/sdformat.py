@@ -115,11 +115,11 @@ class Prepared:
 
     def summary(self) -> str:
         """What was read past, in one line ("" for nothing worth saying)."""
-        parts = [f"{self.read_past[k]} {k}" for k in SHOWN if self.read_past[k]]
-        said = ", ".join(parts)
+        counts = [(k, self.read_past[k]) for k in SHOWN if self.read_past[k]]
+        said = ", ".join(f"{n} {k}{'s' if n > 1 else ''}" for k, n in counts)
         if self.unknown:
             names = ", ".join(f"{k} ({n}×)" for k, n in sorted(self.unknown.items()))
-            said += ("; " if said else "") + f"not SDFormat or URDF: {names}"
+            said += ("; " if said else "") + f"what SDFormat does not define: {names}"
         return f"read past {said}" if said else ""
 
 
@@ -220,7 +220,7 @@ class _Reader:
             if key in attributes or key.startswith("xmlns"):
                 copy.set(key, value)
             elif key != "merge":  # a merged include flies as a nested one
-                self.out.unknown[f"{element.tag}@{key}"] += 1
+                self.out.unknown[f"{key}= on <{element.tag}>"] += 1
         if not children:
             copy.text = " ".join((element.text or "").split())
         for child in element:
@@ -247,7 +247,6 @@ class _Reader:
             copy.set("type", "fixed")
         if copy.tag == "model":
             if not any(c.tag in ("link", "model") for c in copy):
-                self.out.read_past["model with no link"] += 1
                 return None
             for old in copy.findall("static"):
                 copy.remove(old)
@@ -318,7 +317,7 @@ class _Reader:
         self.including.append(target)
         model = self.keep(model, SDF, os.path.dirname(target))
         self.including.pop()
-        for key in ("name", "pose", "static"):
+        for key in ("name", "pose"):  # its <static> too, but every model is
             override = element.find(key)
             if override is None:
                 continue
@@ -365,7 +364,6 @@ class _Reader:
         (the mesh's file resolved and checked); None with no geometry left."""
         geometry = element.find("geometry")
         if geometry is None or not len(geometry):
-            self.out.read_past["collision with no geometry read"] += 1
             return None
         mesh = geometry[0]
         if mesh.tag != "mesh":
