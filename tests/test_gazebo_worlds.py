@@ -148,7 +148,8 @@ def test_a_package_uri_is_found_through_ros_package_path(tmp_path, monkeypatch):
 
 def test_a_state_inserts_and_deletes_models(tmp_path):
     """Gazebo's <insertions> add a model and <deletions> remove one."""
-    text = open(YARD).read()
+    with open(YARD) as f:
+        text = f.read()
     state = """<state world_name="yard">
       <insertions><model name="cube"><pose>2 2 1 0 0 0</pose><link name="l">
         <collision name="c"><geometry><box><size>1 1 1</size></box></geometry>

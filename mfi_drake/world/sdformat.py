@@ -152,7 +152,8 @@ def read_xml(path: str, text: str | None = None) -> tuple[ET.Element, dict]:
         else:
             parser.Parse(text, True)
     except xml.parsers.expat.ExpatError as e:
-        raise ValueError(f"{path}:{e.lineno}: not well-formed XML: {e}") from None
+        line = getattr(e, "lineno", parser.CurrentLineNumber)
+        raise ValueError(f"{path}:{line}: not well-formed XML: {e}") from None
     except (OSError, RecursionError) as e:
         raise ValueError(f"{path}: not readable: {e}") from None
     return root[0], origins
@@ -408,6 +409,7 @@ def prepare(path: str, model_paths: list[str]) -> Prepared:
     root, origins = read_xml(path)
     rules = {"sdf": SDF, "robot": URDF}.get(root.tag)
     if root.tag == "mujoco":
+        _mjcf_includes(root, origins, os.path.dirname(path), [path])
         return Prepared(kind="mjcf")
     if rules is None:
         raise ValueError(
@@ -450,6 +452,23 @@ def _find_package(name: str, folders: list[str]) -> str:
             if top.count(os.sep) - base.count(os.sep) >= 3:
                 dirs.clear()
     return ""
+
+
+def _mjcf_includes(
+    root: ET.Element, origins: dict, folder: str, chain: list[str]
+) -> None:
+    """Raises ValueError at an MJCF <include> of a file that includes
+    itself, which Drake's MJCF parser follows until the stack overflows
+    (a segmentation fault). MuJoCo resolves includes against the main
+    file's folder (`folder`)."""
+    for include in root.iter("include"):
+        target = os.path.normpath(os.path.join(folder, include.get("file", "")))
+        if not os.path.isfile(target):
+            continue  # Drake says what is missing
+        if target in chain or len(chain) >= MAX_DEPTH:
+            raise ValueError(f"{origins[include]}: {target} includes itself")
+        inner, more = read_xml(target)
+        _mjcf_includes(inner, more, folder, [*chain, target])
 
 
 def model_file(folder: str, where: str) -> str:

@@ -105,7 +105,7 @@ def _parse(path: str, prepared: Prepared, plant, heard: _DrakeWarnings) -> list:
         if prepared.kind == "mjcf":
             return parser.AddModels(path)
         return parser.AddModelsFromString(prepared.text, prepared.kind)
-    except RuntimeError as e:
+    except (RuntimeError, SystemExit) as e:  # SystemExit: a failed Drake check
         lines = [line for line in str(e).splitlines() if line.strip()] or ["?"]
         cause = lines[0]
         found = re.search(r":(\d+): (?:error: )?(.*)", cause)
@@ -153,7 +153,7 @@ def world_obstacles(
     _parse(path, prepared, plant, heard)
     try:
         plant.Finalize()
-    except RuntimeError as e:
+    except (RuntimeError, SystemExit) as e:
         raise ValueError(f"{path}: {str(e).splitlines()[0]}") from None
     # Every model stands where its file puts it (its joints at their
     # defaults): the default context's poses.
