@@ -220,6 +220,9 @@ class _Reader:
         for key, value in element.attrib.items():
             if key in attributes or key.startswith("xmlns"):
                 copy.set(key, value)
+            elif key == "frame" and element.tag == "pose":  # SDFormat 1.5–1.6
+                if value:
+                    copy.set("relative_to", value)
             elif key != "merge":  # a merged include flies as a nested one
                 self.out.unknown[f"{key}= on <{element.tag}>"] += 1
         if not children:
