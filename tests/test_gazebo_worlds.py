@@ -211,8 +211,8 @@ def test_a_pybullet_table_of_mass_0_stands_where_world_pose_puts_it(tmp_path):
 
 
 def test_a_mujoco_scene_is_its_geoms(tmp_path):
-    """MJCF half sizes, a capsule from `fromto`, a free body and a hinged
-    one where they start, the visual-only marker not an obstacle, the
+    """MJCF half sizes, a capsule from `fromto`, a mesh's hull (as MuJoCo
+    collides it), a free body and a hinged one where they start, the visual-only marker not an obstacle, the
     floor plane the ground."""
     scene = os.path.join(DATA, "mujoco", "scene.xml")
     with pytest.warns(ScenarioWarning, match="Drake warnings"):
@@ -224,6 +224,10 @@ def test_a_mujoco_scene_is_its_geoms(tmp_path):
         "arm": (sc.Capsule(radius=0.2, length=2.0), [10, -0.8, 1.2], 0),
     }
     found = {o.name.split("geometry ")[1].strip("'"): o for o in scenario.obstacles}
+    crate = found.pop("crate")  # a mesh: its hull, the crate's 1 m cube
+    np.testing.assert_allclose(
+        _corners([crate]), _cube([2, -1.5, 1], np.radians(20)), atol=1e-9
+    )
     assert sorted(found) == sorted(expected)
     for name, (shape, position, yaw) in expected.items():
         assert found[name].shape == shape

@@ -97,12 +97,13 @@ SHOWN = ("plugin", "light", "actor", "sensor", "visual", "gui", "heightmap")
 @dataclass
 class Prepared:
     """A world file rewritten for Drake: `text` in format `kind` ("sdf",
-    "urdf"), the collision meshes its placeholders number (absolute path,
-    scale), what was read past, and where each element of `text` came from."""
+    "urdf"), the collision meshes its placeholders number, what was read
+    past, and where each element of `text` came from."""
 
     text: str = ""
     kind: str = "sdf"
-    meshes: list[tuple[str, list[float]]] = field(default_factory=list)
+    # Each placeholder's mesh: its file, scale and the "file:line" naming it.
+    meshes: list[tuple[str, list[float], str]] = field(default_factory=list)
     read_past: Counter = field(default_factory=Counter)
     unknown: Counter = field(default_factory=Counter)
     starts: list[int] = field(default_factory=list)  # line of each element
@@ -389,7 +390,7 @@ class _Reader:
             raise ValueError(f"{where}: a mesh's scale must hold 1 or 3 numbers")
         name = element.get("name", "collision")
         element.set("name", f"__mfi_mesh_{len(self.out.meshes)}__{name}")
-        self.out.meshes.append((path, scale))
+        self.out.meshes.append((path, scale, where))
         geometry.remove(mesh)
         box = ET.SubElement(geometry, "box")
         if self.out.kind == "urdf":

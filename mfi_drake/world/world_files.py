@@ -211,16 +211,19 @@ def _obstacles(
         rpy_deg=[round(float(x), RPY_DECIMALS) + 0.0 for x in np.degrees(rpy.vector())],
         name=where,
     )
+    if isinstance(shape, Mesh) and prepared.kind == "mjcf":  # MuJoCo: its hull
+        shape = Convex(shape.source(), shape.scale3())
     if mesh or isinstance(shape, Mesh):
-        path, scale = (
+        path, scale, origin = (
             prepared.meshes[int(mesh[1])]
             if mesh
-            else (str(shape.source().path()), shape.scale3())
+            else (str(shape.source().path()), shape.scale3(), "")
         )
         try:
             return mesh_obstacles(obstacle, path, scale, where)
         except ValueError as e:
-            raise ValueError(f"model {model!r} geometry {name!r}: {e}") from None
+            cause = f"model {model!r} geometry {name!r}: {e}"
+            raise ValueError(f"{origin}: {cause}" if origin else cause) from None
     return [dataclasses.replace(obstacle, shape=_SHAPES[type(shape)](shape))]
 
 
