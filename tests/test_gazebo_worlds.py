@@ -212,8 +212,8 @@ def test_a_pybullet_table_of_mass_0_stands_where_world_pose_puts_it(tmp_path):
 
 def test_a_mujoco_scene_is_its_geoms(tmp_path):
     """MJCF half sizes, a capsule from `fromto`, a mesh's hull (as MuJoCo
-    collides it), a free body and a hinged one where they start, the visual-only marker not an obstacle, the
-    floor plane the ground."""
+    collides it), a free body and a hinged one where they start, the
+    visual-only marker not an obstacle, the floor plane the ground."""
     scene = os.path.join(DATA, "mujoco", "scene.xml")
     with pytest.warns(ScenarioWarning, match="Drake warnings"):
         scenario = load_scenario(_yaml(tmp_path, scene))
