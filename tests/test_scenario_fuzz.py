@@ -117,12 +117,13 @@ def check_loads_or_fails_cleanly(directory: str, text: str | bytes) -> None:
         assert isinstance(scenario, Scenario) and isinstance(scenario.faults, Faults)
 
 
-@st.composite
-def mutated(draw):
-    """A shipped scenario with 1–3 line, token or byte mutations."""
-    name = draw(st.sampled_from(SHIPPED))
-    with open(os.path.join(SCENARIOS, name)) as f:
-        lines = f.read().splitlines()
+def mutate_lines(
+    draw, lines: list[str], values: list[str], inserts: list[str], chars: str, cuts: str
+) -> str:
+    """`lines` with 1–3 line, token or character mutations: a YAML value,
+    a token (the line split at spaces and at each of `cuts`) replaced by
+    one of `values`, a line deleted, duplicated or one of `inserts` put
+    before it, a character replaced by one of `chars`."""
     for _ in range(draw(st.integers(1, 3))):
         i = draw(st.integers(0, len(lines) - 1))
         kind = draw(
@@ -130,25 +131,36 @@ def mutated(draw):
         )
         line = lines[i]
         if kind == "value" and ":" in line:
-            lines[i] = line.split(":", 1)[0] + ": " + draw(st.sampled_from(VALUES))
+            lines[i] = line.split(":", 1)[0] + ": " + draw(st.sampled_from(values))
         elif kind == "token":
-            tokens = line.replace(",", " , ").replace("]", " ] ").split(" ")
+            for cut in cuts:
+                line = line.replace(cut, f" {cut} ")
+            tokens = line.split(" ")
             j = draw(st.integers(0, len(tokens) - 1))
-            tokens[j] = draw(st.sampled_from(VALUES))
+            tokens[j] = draw(st.sampled_from(values))
             lines[i] = " ".join(tokens)
         elif kind == "delete":
             del lines[i]
         elif kind == "duplicate":
             lines.insert(i, line)
         elif kind == "insert":
-            lines.insert(i, draw(st.sampled_from(LINES)))
+            lines.insert(i, draw(st.sampled_from(inserts)))
         elif line:
             j = draw(st.integers(0, len(line)))
-            char = draw(st.sampled_from(":-[]{}!&*#|>'\"\t ,0123456789.eE+x\x00\u00e9"))
-            lines[i] = line[:j] + char + line[j + 1 :]
+            lines[i] = line[:j] + draw(st.sampled_from(chars)) + line[j + 1 :]
         if not lines:
             lines = [""]
     return "\n".join(lines) + "\n"
+
+
+@st.composite
+def mutated(draw):
+    """A shipped scenario with 1–3 line, token or byte mutations."""
+    name = draw(st.sampled_from(SHIPPED))
+    with open(os.path.join(SCENARIOS, name)) as f:
+        lines = f.read().splitlines()
+    chars = ":-[]{}!&*#|>'\"\t ,0123456789.eE+x\x00\u00e9"
+    return mutate_lines(draw, lines, VALUES, LINES, chars, ",]")
 
 
 FIELD_NAMES = [

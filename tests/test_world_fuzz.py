@@ -19,6 +19,8 @@ from mfi_drake.config.scenario import Scenario, ScenarioError
 from mfi_drake.config.worlds import ScenarioWarning
 from mfi_drake.world.validation import load_scenario
 
+from .test_scenario_fuzz import mutate_lines
+
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
 FUZZ = settings(
     max_examples=60,
@@ -144,29 +146,8 @@ def mutated(draw):
         text = f.read()
     if draw(st.booleans()):
         return name, _tree_mutated(draw, text)
-    lines = text.splitlines()
-    for _ in range(draw(st.integers(1, 3))):
-        i = draw(st.integers(0, len(lines) - 1))
-        kind = draw(st.sampled_from(["token", "delete", "duplicate", "insert", "char"]))
-        line = lines[i]
-        if kind == "token":
-            tokens = line.replace(">", "> ").replace("<", " <").split(" ")
-            j = draw(st.integers(0, len(tokens) - 1))
-            tokens[j] = draw(st.sampled_from(VALUES))
-            lines[i] = " ".join(tokens)
-        elif kind == "delete":
-            del lines[i]
-        elif kind == "duplicate":
-            lines.insert(i, line)
-        elif kind == "insert":
-            lines.insert(i, draw(st.sampled_from(LINES)))
-        elif line:
-            j = draw(st.integers(0, len(line)))
-            char = draw(st.sampled_from("<>/=\"' &;!?-0123456789.eE+x\x00\u00e9"))
-            lines[i] = line[:j] + char + line[j + 1 :]
-        if not lines:
-            lines = [""]
-    return name, "\n".join(lines) + "\n"
+    chars = "<>/=\"' &;!?-0123456789.eE+x\x00\u00e9"
+    return name, mutate_lines(draw, text.splitlines(), VALUES, LINES, chars, "<>")
 
 
 def check_loads_or_fails_cleanly(directory: str, name: str, text: str) -> None:

@@ -312,6 +312,8 @@ class _Reader:
         target = self.resolve(uri, folder, where)
         if os.path.isdir(target):
             target = model_file(target, where)
+        if not os.path.isfile(target):
+            raise ValueError(f"{where}: {uri}: no such file ({target})")
         if len(self.including) >= MAX_DEPTH or target in self.including:
             raise ValueError(f"{where}: {uri} includes itself")
         root, origins = read_xml(target)
