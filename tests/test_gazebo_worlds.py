@@ -146,6 +146,32 @@ def test_a_package_uri_is_found_through_ros_package_path(tmp_path, monkeypatch):
     assert post.position == [3.0, 0.0, 1.5]
 
 
+def test_a_fuel_uri_is_its_newest_download_or_a_folder_of_its_name(
+    tmp_path, monkeypatch
+):
+    """Gazebo's Fuel cache holds versions 1 and 2 of a model: version 2 is
+    read; a folder of the model's name in model_paths is read first."""
+    cache = tmp_path / "fuel" / "fuel.gazebosim.org" / "openrobotics" / "models"
+    shutil.copytree(os.path.join(MODELS, "post"), cache / "big post" / "2")
+    shutil.copytree(os.path.join(MODELS, "gate"), cache / "big post" / "1")
+    monkeypatch.setenv("GZ_FUEL_CACHE_PATH", str(tmp_path / "fuel"))
+    uri = "https://fuel.gazebosim.org/1.0/OpenRobotics/models/Big%20Post"
+    (tmp_path / "w.world").write_text(
+        f'<sdf version="1.6"><world name="w"><include><uri>{uri}</uri>'
+        "<pose>5 0 0 0 0 0</pose></include></world></sdf>"
+    )
+    with pytest.warns(ScenarioWarning):
+        (post,) = load_scenario(_yaml(tmp_path, "w.world")).obstacles
+    assert post.shape == sc.Cylinder(radius=0.3, length=3.0)
+    assert post.position == [5.0, 0.0, 1.5]
+    shutil.copytree(os.path.join(MODELS, "crate"), tmp_path / "models" / "Big Post")
+    with pytest.warns(ScenarioWarning):
+        scenario = load_scenario(_yaml(tmp_path, "w.world", "model_paths: [models]\n"))
+    assert [o.name.split("model ")[1] for o in scenario.obstacles] == [
+        "'crate' geometry 'collision' piece 0"  # the folder's model
+    ]
+
+
 def test_a_state_inserts_and_deletes_models(tmp_path):
     """Gazebo's <insertions> add a model and <deletions> remove one."""
     with open(YARD) as f:
@@ -272,10 +298,10 @@ BROKEN = {
         "<geometry><box><size>1 1</size></box></geometry>\n</collision></link></model>",
         "w.world:6: ",
     ),
-    "fuel uri": (
+    "fuel model not downloaded": (
         "<include><uri>https://fuel.gazebosim.org/1.0/x/models/y</uri></include>",
-        "w.world:4: https://fuel.gazebosim.org/1.0/x/models/y: https:// is not "
-        "fetched; download the model and list its folder in model_paths",
+        "w.world:4: Fuel model 'y' (https://fuel.gazebosim.org/1.0/x/models/y; "
+        f"Gazebo downloads it) not found in: {MODELS}, ",
     ),
 }
 

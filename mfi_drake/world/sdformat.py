@@ -31,7 +31,6 @@ import math
 import os
 import re
 import xml.etree.ElementTree as ET
-import xml.parsers.expat
 from bisect import bisect_right
 from collections import Counter
 from dataclasses import dataclass, field
@@ -39,8 +38,17 @@ from dataclasses import dataclass, field
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 
+from mfi_drake.world.model_files import (
+    MODEL_ENV,
+    env_folders,
+    find_package,
+    fuel_folders,
+    model_file,
+    newest_version,
+    read_xml,
+)
+
 MESH_MARK = re.compile(r"__mfi_mesh_(\d+)__(.*)$")
-MODEL_ENV = ("GAZEBO_MODEL_PATH", "GZ_SIM_RESOURCE_PATH", "IGN_GAZEBO_RESOURCE_PATH")
 CONVEX = "drake:declare_convex"  # Drake's: a mesh flown as its hull
 MAX_DEPTH = 32  # includes nested deeper are a loop
 # What Drake needs of SDFormat and URDF: the children and attributes kept.
@@ -122,48 +130,6 @@ class Prepared:
             names = ", ".join(f"{k} ({n}×)" for k, n in sorted(self.unknown.items()))
             said += ("; " if said else "") + f"what SDFormat does not define: {names}"
         return f"read past {said}" if said else ""
-
-
-def read_xml(path: str, text: str | None = None) -> tuple[ET.Element, dict]:
-    """The XML file `path` (or `text`, named `path`) as elements, and each
-    element's "file:line". Raises ValueError naming the line."""
-    origins: dict[ET.Element, str] = {}
-    stack: list[ET.Element] = []
-    root: list[ET.Element] = []
-    parser = xml.parsers.expat.ParserCreate()
-
-    def start(tag: str, attrs: dict) -> None:
-        element = ET.Element(tag, attrs)
-        origins[element] = f"{path}:{parser.CurrentLineNumber}"
-        (stack[-1].append if stack else root.append)(element)
-        stack.append(element)
-
-    def text_of(data: str) -> None:
-        if stack:  # only a leaf's text is read: children's tails are not
-            stack[-1].text = (stack[-1].text or "") + data
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = lambda tag: stack.pop()
-    parser.CharacterDataHandler = text_of
-    parser.EntityDeclHandler = _no_entities
-    try:
-        if text is None:
-            with open(path, "rb") as f:
-                parser.ParseFile(f)
-        else:
-            parser.Parse(text, True)
-    except xml.parsers.expat.ExpatError as e:
-        line = getattr(e, "lineno", parser.CurrentLineNumber)
-        raise ValueError(f"{path}:{line}: not well-formed XML: {e}") from None
-    except (OSError, RecursionError) as e:
-        raise ValueError(f"{path}: not readable: {e}") from None
-    return root[0], origins
-
-
-def _no_entities(name, *_) -> None:
-    """Entity declarations are refused: expanded, a few lines can make
-    gigabytes (an XML bomb)."""
-    raise xml.parsers.expat.ExpatError(f"entity {name!r} declared: not read")
 
 
 def pose_matrix(element: ET.Element | None, where: str) -> RigidTransform:
@@ -343,28 +309,34 @@ class _Reader:
         if not sep:
             return os.path.normpath(os.path.join(folder, uri))
         if scheme == "file":
-            return rest
+            return os.path.join(folder, rest)  # `rest` absolute: itself
         name, _, inner = rest.partition("/")
         if scheme == "model":
-            folders = [*self.model_paths, *_env(MODEL_ENV)]
-            folders += [os.path.dirname(folder), os.path.dirname(self.path)]
-            for base in folders:
-                if os.path.isdir(os.path.join(base, name)):
-                    return os.path.join(base, name, inner)
+            folders = self.model_folders(folder)
+            found = [os.path.join(f, name) for f in folders]
             what = f"model {name!r} ({uri})"
         elif scheme == "package":
-            folders = [*self.model_paths, *_env(("ROS_PACKAGE_PATH",))]
-            found = _find_package(name, folders)
-            if found:
-                return os.path.join(found, inner)
+            folders = [*self.model_paths, *env_folders(("ROS_PACKAGE_PATH",))]
+            found = [find_package(name, folders)]
             what = f"package {name!r} ({uri})"
+        elif scheme in ("http", "https"):
+            name, inner, cached = fuel_folders(uri, where)
+            folders = [*self.model_folders(folder), *cached]
+            found = [os.path.join(f, name) for f in self.model_folders(folder)]
+            found += [newest_version(f) for f in cached]
+            what = f"Fuel model {name!r} ({uri}; Gazebo downloads it)"
         else:
-            raise ValueError(
-                f"{where}: {uri}: {scheme}:// is not fetched; download the model "
-                "and list its folder in model_paths"
-            )
+            raise ValueError(f"{where}: {uri}: {scheme}:// is not read")
+        for base in found:
+            if base and os.path.isdir(base):
+                return os.path.join(base, inner)
         searched = ", ".join(dict.fromkeys(folders)) or "no folder"
         raise ValueError(f"{where}: {what} not found in: {searched}")
+
+    def model_folders(self, folder: str) -> list[str]:
+        """Where `model://` is searched, from a file in `folder`."""
+        beside = [os.path.dirname(folder), os.path.dirname(self.path)]
+        return [*self.model_paths, *env_folders(MODEL_ENV), *beside]
 
     def collision(self, element: ET.Element, folder: str) -> ET.Element | None:
         """A kept collision, its mesh replaced by a numbered placeholder box
@@ -435,31 +407,6 @@ def prepare(path: str, model_paths: list[str]) -> Prepared:
     return out
 
 
-def _env(names: tuple[str, ...]) -> list[str]:
-    return [f for n in names for f in os.environ.get(n, "").split(":") if f]
-
-
-def _find_package(name: str, folders: list[str]) -> str:
-    """A folder named `name`, or holding a package.xml naming it, at most
-    three levels under one of `folders` (ROS_PACKAGE_PATH's roots)."""
-    for base in folders:
-        if os.path.basename(os.path.normpath(base)) == name:
-            return base
-        for top, dirs, files in os.walk(base):
-            if os.path.basename(top) == name and top != base:
-                return top
-            if "package.xml" in files:
-                try:
-                    root, _ = read_xml(os.path.join(top, "package.xml"))
-                except ValueError:
-                    continue
-                if (root.findtext("name") or "").strip() == name:
-                    return top
-            if top.count(os.sep) - base.count(os.sep) >= 3:
-                dirs.clear()
-    return ""
-
-
 def _mjcf_includes(
     root: ET.Element, origins: dict, folder: str, chain: list[str]
 ) -> None:
@@ -475,27 +422,3 @@ def _mjcf_includes(
             raise ValueError(f"{origins[include]}: {target} includes itself")
         inner, more = read_xml(target)
         _mjcf_includes(inner, more, folder, [*chain, target])
-
-
-def model_file(folder: str, where: str) -> str:
-    """The SDFormat file of a Gazebo model folder: the one its model.config
-    names (of several <sdf>, the highest version), else model.sdf."""
-    config = os.path.join(folder, "model.config")
-    if os.path.isfile(config):
-        root, _ = read_xml(config)
-        named = [
-            (e.get("version", "0"), (e.text or "").strip()) for e in root.iter("sdf")
-        ]
-        named = [(v, f) for v, f in named if f]
-        if named:
-            version = max(named, key=lambda vf: _version(vf[0]))
-            return os.path.join(folder, version[1])
-    if os.path.isfile(os.path.join(folder, "model.sdf")):
-        return os.path.join(folder, "model.sdf")
-    raise ValueError(
-        f"{where}: model folder {folder} holds no model.config or model.sdf"
-    )
-
-
-def _version(text: str) -> tuple[int, ...]:
-    return tuple(int(x) for x in re.findall(r"\d+", text))

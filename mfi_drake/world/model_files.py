@@ -1,0 +1,128 @@
+"""The files a world names: XML read with each element's line (for errors
+that name it), and the folders `model://`, `package://` and Fuel URIs
+name, found as Gazebo and ROS find them (`sdformat` resolves with these)."""
+
+import os
+import re
+import xml.etree.ElementTree as ET
+import xml.parsers.expat
+from urllib.parse import unquote
+
+MODEL_ENV = ("GAZEBO_MODEL_PATH", "GZ_SIM_RESOURCE_PATH", "IGN_GAZEBO_RESOURCE_PATH")
+
+
+def read_xml(path: str, text: str | None = None) -> tuple[ET.Element, dict]:
+    """The XML file `path` (or `text`, named `path`) as elements, and each
+    element's "file:line". Raises ValueError naming the line."""
+    origins: dict[ET.Element, str] = {}
+    stack: list[ET.Element] = []
+    root: list[ET.Element] = []
+    parser = xml.parsers.expat.ParserCreate()
+
+    def start(tag: str, attrs: dict) -> None:
+        element = ET.Element(tag, attrs)
+        origins[element] = f"{path}:{parser.CurrentLineNumber}"
+        (stack[-1].append if stack else root.append)(element)
+        stack.append(element)
+
+    def text_of(data: str) -> None:
+        if stack:  # only a leaf's text is read: children's tails are not
+            stack[-1].text = (stack[-1].text or "") + data
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = lambda tag: stack.pop()
+    parser.CharacterDataHandler = text_of
+    parser.EntityDeclHandler = _no_entities
+    try:
+        if text is None:
+            with open(path, "rb") as f:
+                parser.ParseFile(f)
+        else:
+            parser.Parse(text, True)
+    except xml.parsers.expat.ExpatError as e:
+        line = getattr(e, "lineno", parser.CurrentLineNumber)
+        raise ValueError(f"{path}:{line}: not well-formed XML: {e}") from None
+    except (OSError, RecursionError) as e:
+        raise ValueError(f"{path}: not readable: {e}") from None
+    return root[0], origins
+
+
+def _no_entities(name, *_) -> None:
+    """Entity declarations are refused: expanded, a few lines can make
+    gigabytes (an XML bomb)."""
+    raise xml.parsers.expat.ExpatError(f"entity {name!r} declared: not read")
+
+
+def env_folders(names: tuple[str, ...]) -> list[str]:
+    return [f for n in names for f in os.environ.get(n, "").split(":") if f]
+
+
+def fuel_folders(uri: str, where: str) -> tuple[str, str, list[str]]:
+    """A Fuel URI (https://HOST/1.0/OWNER/models/NAME[/VERSION][/files/PATH]):
+    the model's name, the PATH in it, and its folders in Gazebo's Fuel caches
+    (GZ_FUEL_CACHE_PATH, ~/.gz/fuel, ~/.ignition/fuel)."""
+    parts = [unquote(p) for p in uri.split("://", 1)[1].split("/")]
+    if len(parts) < 5 or parts[3].lower() != "models":
+        raise ValueError(f"{where}: {uri}: not a Fuel model's URI")
+    host, owner, name, rest = parts[0], parts[2], parts[4], parts[5:]
+    inner = "/".join(rest[rest.index("files") + 1 :]) if "files" in rest else ""
+    roots = [os.environ.get("GZ_FUEL_CACHE_PATH", ""), "~/.gz/fuel", "~/.ignition/fuel"]
+    cached = [
+        os.path.join(os.path.expanduser(r), host, owner.lower(), "models", name.lower())
+        for r in roots
+        if r
+    ]
+    return name, inner, cached
+
+
+def newest_version(folder: str) -> str:
+    """The highest numbered version folder of a cached Fuel model."""
+    versions = (
+        [v for v in os.listdir(folder) if v.isdigit()] if os.path.isdir(folder) else []
+    )
+    return os.path.join(folder, max(versions, key=int)) if versions else ""
+
+
+def find_package(name: str, folders: list[str]) -> str:
+    """A folder named `name`, or holding a package.xml naming it, at most
+    three levels under one of `folders` (ROS_PACKAGE_PATH's roots)."""
+    for base in folders:
+        if os.path.basename(os.path.normpath(base)) == name:
+            return base
+        for top, dirs, files in os.walk(base):
+            if os.path.basename(top) == name and top != base:
+                return top
+            if "package.xml" in files:
+                try:
+                    root, _ = read_xml(os.path.join(top, "package.xml"))
+                except ValueError:
+                    continue
+                if (root.findtext("name") or "").strip() == name:
+                    return top
+            if top.count(os.sep) - base.count(os.sep) >= 3:
+                dirs.clear()
+    return ""
+
+
+def model_file(folder: str, where: str) -> str:
+    """The SDFormat file of a Gazebo model folder: the one its model.config
+    names (of several <sdf>, the highest version), else model.sdf."""
+    config = os.path.join(folder, "model.config")
+    if os.path.isfile(config):
+        root, _ = read_xml(config)
+        named = [
+            (e.get("version", "0"), (e.text or "").strip()) for e in root.iter("sdf")
+        ]
+        named = [(v, f) for v, f in named if f]
+        if named:
+            version = max(named, key=lambda vf: _version(vf[0]))
+            return os.path.join(folder, version[1])
+    if os.path.isfile(os.path.join(folder, "model.sdf")):
+        return os.path.join(folder, "model.sdf")
+    raise ValueError(
+        f"{where}: model folder {folder} holds no model.config or model.sdf"
+    )
+
+
+def _version(text: str) -> tuple[int, ...]:
+    return tuple(int(x) for x in re.findall(r"\d+", text))
