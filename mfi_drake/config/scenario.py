@@ -217,10 +217,10 @@ class Scenario:
     vehicle: str = "drake_default"
     sensor: Sensor = field(default_factory=SphereSensor)
     obstacles: list[Obstacle] = field(default_factory=list)
-    # An SDFormat (.sdf) or URDF (.urdf) file, relative to the YAML file, whose
-    # static models' collision geometries are obstacles too: loading appends
-    # them to `obstacles` and empties this (docs/usage.md, "Worlds"). Or a
-    # point-cloud map (.ply, .pcd), its points thinned into map_points.
+    # A Gazebo (.world, .sdf), URDF or MJCF (.xml) file, relative to the YAML
+    # file, whose models' collision geometries are obstacles too: loading
+    # appends them to `obstacles` and empties this (docs/usage.md, "Worlds").
+    # Or a point-cloud map (.ply, .pcd), its points thinned into map_points.
     world: str = ""
     # Where the world file is placed in the scenario's frame, and the folders
     # (relative to the YAML file) searched first for its `model://` includes.

@@ -12,7 +12,8 @@ collision geometry at its pose, so only that is kept.
   of the file that holds it. `model://` is searched in `model_paths`, then
   GAZEBO_MODEL_PATH, GZ_SIM_RESOURCE_PATH, IGN_GAZEBO_RESOURCE_PATH, then
   beside the file that names it; `package://` in `model_paths`, then
-  ROS_PACKAGE_PATH.
+  ROS_PACKAGE_PATH; a Fuel URL as a folder of the model's name, else in
+  Gazebo's Fuel cache (`model_files`).
 - Visuals, sensors, plugins, lights, actors, GUI, physics, inertials,
   joints... are read past (counted), as is every element and attribute
   SDFormat does not define (Bullet's `concave="yes"`): they never block
