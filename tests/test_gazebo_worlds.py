@@ -16,7 +16,9 @@ from mfi_drake.config import scenario as sc
 from mfi_drake.config.worlds import ScenarioWarning
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.world.point_clouds import write_ply
+from mfi_drake.world.sdformat import prepare
 from mfi_drake.world.validation import load_scenario
+from mfi_drake.world.world_files import world_obstacles
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
 MODELS = os.path.join(DATA, "gazebo", "models")
@@ -320,3 +322,25 @@ def test_a_broken_world_is_one_line_naming_its_line_and_exit_2(tmp_path, capsys,
     assert err.count("\n") == 1, err
     assert f"{path}: world = 'w.world': {needle}" in err
     assert not out.exists()
+
+
+def test_a_thousand_geometries_and_a_ground_plane_load(tmp_path):
+    """Drake's SceneGraph crashed (exit 139) registering a half space among
+    ~1000 geometries (FCL's broadphase): a plane reaches Drake as a
+    placeholder box, and the world loads with its ground (3k_shapes.sdf of
+    Gazebo's examples crashed so)."""
+    rng = np.random.default_rng(7)
+    boxes = "".join(
+        f'<model name="b{k}"><pose>{x} {y} 1 0 0 0</pose><link name="l">'
+        '<collision name="c"><geometry><cylinder><radius>0.1</radius>'
+        "<length>2</length></cylinder></geometry></collision></link></model>"
+        for k, (x, y) in enumerate(rng.uniform(20, 60, (1000, 2)).round(3))
+    )
+    (tmp_path / "w.world").write_text(
+        f'<sdf version="1.6"><world name="w">{boxes}<include>'
+        "<uri>model://ground_plane</uri></include></world></sdf>"
+    )
+    path = str(tmp_path / "w.world")
+    assert "<plane>" not in prepare(path, [MODELS]).text
+    world = world_obstacles(path, "w.world", [MODELS])  # (validation: issue 49b)
+    assert len(world.obstacles) == 1000 and world.ground == 0.0

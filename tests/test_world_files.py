@@ -243,7 +243,8 @@ BAD_WORLDS = [
         "plane",
         PLANE,
         "w.sdf",
-        "model 'scene' geometry 'ball': a plane is a ground only facing up (+z)",
+        "w.sdf:14: model 'scene' geometry 'ball': a plane is a ground only facing up "
+        "(+z)",
     ),
     ("suffix", SDF, "w.txt", "must be a Gazebo world or model (.world, .sdf)"),
 ]

@@ -21,9 +21,11 @@ collision geometry at its pose, so only that is kept.
 - Every model is static, its links where its file (or its world's
   `<state>`, applied here as Gazebo applies it) puts them; a URDF's joints
   are fixed at zero. Inertia never matters.
-- A collision mesh (any format) is replaced by a placeholder box whose
-  name `MESH_MARK` numbers it: Drake reads no mesh file, and
-  `world_files` decomposes the mesh itself (`Prepared.meshes`).
+- A collision mesh (any format) or plane is replaced by a placeholder box
+  whose name `MARK` numbers it: Drake reads no mesh file, and
+  `world_files` decomposes the mesh itself (`Prepared.meshes`). A plane is
+  no half space in Drake's SceneGraph: among thousands of geometries, one
+  crashes its broadphase (FCL) as they are registered.
 
 Errors are one line naming the file and line of their cause (ValueError).
 """
@@ -49,7 +51,7 @@ from mfi_drake.world.model_files import (
     read_xml,
 )
 
-MESH_MARK = re.compile(r"__mfi_mesh_(\d+)__(.*)$")
+MARK = re.compile(r"__mfi_(mesh|plane)_(\d+)__(.*)$")
 CONVEX = "drake:declare_convex"  # Drake's: a mesh flown as its hull
 MAX_DEPTH = 32  # includes nested deeper are a loop
 # What Drake needs of SDFormat and URDF: the children and attributes kept.
@@ -111,8 +113,10 @@ class Prepared:
 
     text: str = ""
     kind: str = "sdf"
-    # Each placeholder's mesh: its file, scale and the "file:line" naming it.
+    # Each placeholder's mesh: its file, scale and the "file:line" naming it;
+    # each plane's: its normal (in its collision's frame) and "file:line".
     meshes: list[tuple[str, list[float], str]] = field(default_factory=list)
+    planes: list[tuple[list[float], str]] = field(default_factory=list)
     read_past: Counter = field(default_factory=Counter)
     unknown: Counter = field(default_factory=Counter)
     starts: list[int] = field(default_factory=list)  # line of each element
@@ -340,33 +344,47 @@ class _Reader:
         return [*self.model_paths, *env_folders(MODEL_ENV), *beside]
 
     def collision(self, element: ET.Element, folder: str) -> ET.Element | None:
-        """A kept collision, its mesh replaced by a numbered placeholder box
-        (the mesh's file resolved and checked); None with no geometry left."""
+        """A kept collision, its mesh or plane replaced by a numbered
+        placeholder box (a mesh's file resolved and checked); None with no
+        geometry left."""
         geometry = element.find("geometry")
         if geometry is None or not len(geometry):
             return None
-        mesh = geometry[0]
-        if mesh.tag != "mesh":
+        shape = geometry[0]
+        where = self.origins[shape]
+        if shape.tag == "plane":
+            normal = _numbers(shape.findtext("normal") or "0 0 1", where, "a normal")
+            if len(normal) != 3 or not any(normal):
+                raise ValueError(f"{where}: a plane's normal must be 3 numbers, not 0")
+            self.out.planes.append((normal, where))
+            return self.placeholder(element, f"plane_{len(self.out.planes) - 1}")
+        if shape.tag != "mesh":
             return element
-        where = self.origins[mesh]
-        uri = (mesh.findtext("uri") or mesh.get("filename") or "").strip()
+        uri = (shape.findtext("uri") or shape.get("filename") or "").strip()
         path = self.resolve(uri, folder, where)
         if not os.path.isfile(path):
             raise ValueError(f"{where}: mesh {uri!r}: no such file ({path})")
-        if mesh.find(CONVEX) is not None:  # Drake reads it as its hull
+        if shape.find(CONVEX) is not None:  # Drake reads it as its hull
             if self.out.kind == "urdf":
-                mesh.set("filename", f"file://{path}")
+                shape.set("filename", f"file://{path}")
             else:
-                mesh.find("uri").text = f"file://{path}"
+                shape.find("uri").text = f"file://{path}"
             return element
-        scale = mesh.findtext("scale") or mesh.get("scale") or "1"
+        scale = shape.findtext("scale") or shape.get("scale") or "1"
         scale = _numbers(scale, where, "a mesh's scale")
         if len(scale) not in (1, 3):
             raise ValueError(f"{where}: a mesh's scale must hold 1 or 3 numbers")
-        name = element.get("name", "collision")
-        element.set("name", f"__mfi_mesh_{len(self.out.meshes)}__{name}")
         self.out.meshes.append((path, scale, where))
-        geometry.remove(mesh)
+        return self.placeholder(element, f"mesh_{len(self.out.meshes) - 1}")
+
+    def placeholder(self, collision: ET.Element, mark: str) -> ET.Element:
+        """`collision` with a unit box for its shape, renamed with `mark`
+        (`MARK`): Drake poses the box; what it stands for is the mark's."""
+        name = collision.get("name", "collision")
+        collision.set("name", f"__mfi_{mark}__{name}")
+        geometry = collision.find("geometry")
+        where = self.origins[geometry[0]]
+        geometry.remove(geometry[0])
         box = ET.SubElement(geometry, "box")
         if self.out.kind == "urdf":
             box.set("size", "1 1 1")
@@ -374,7 +392,7 @@ class _Reader:
             ET.SubElement(box, "size").text = "1 1 1"
         for added in box.iter():
             self.origins[added] = where
-        return element
+        return collision
 
 
 def _named(parent: ET.Element, tag: str, name: str) -> list[ET.Element]:

@@ -41,7 +41,7 @@ from mfi_drake.config.worlds import ScenarioWarning, WorldPose
 from mfi_drake.world.decomposition import mesh_obstacles, with_meshes
 from mfi_drake.world.obstacles import quiet_half_spaces
 from mfi_drake.world.point_clouds import with_map
-from mfi_drake.world.sdformat import MESH_MARK, Prepared, prepare
+from mfi_drake.world.sdformat import MARK, Prepared, prepare
 
 WORLD_SUFFIXES = (".sdf", ".world", ".urdf", ".xml", ".mjcf")
 # Decimals of a degree that a pose's roll, pitch and yaw are read to: the
@@ -156,13 +156,15 @@ def world_obstacles(
     except (RuntimeError, SystemExit) as e:
         raise ValueError(f"{path}: {str(e).splitlines()[0]}") from None
     # Every model stands where its file puts it (its joints at their
-    # defaults): the default context's poses.
-    diagram = builder.Build()
-    context = scene_graph.GetMyContextFromRoot(diagram.CreateDefaultContext())
-    query = scene_graph.get_query_output_port().Eval(context)
+    # defaults): the plant's default poses, composed here, not by a
+    # SceneGraph context, whose broadphase (FCL) crashes with a half space
+    # (a world's ground plane) among thousands of geometries.
+    context = plant.CreateDefaultContext()
+    inspector = scene_graph.model_inspector()
     obstacles, grounds = [], []
-    for geometry in query.inspector().GetAllGeometryIds(Role.kProximity):
-        found = _obstacles(plant, query, geometry, X_SW, prepared, label)
+    for geometry in inspector.GetAllGeometryIds(Role.kProximity):
+        X_WG = _pose(plant, context, inspector, geometry)
+        found = _obstacles(plant, inspector, geometry, X_SW @ X_WG, prepared, label)
         if isinstance(found, float):
             grounds.append(found)
         else:
@@ -178,27 +180,34 @@ def world_obstacles(
     return World(obstacles, max(grounds, default=None), notes)
 
 
+def _pose(plant, context, inspector, geometry) -> RigidTransform:
+    """X_WG: a geometry's pose in the world, its body's composed with its
+    own in the body."""
+    body = plant.GetBodyFromFrameId(inspector.GetFrameId(geometry))
+    X_WB = plant.EvalBodyPoseInWorld(context, body)
+    return X_WB @ inspector.GetPoseInFrame(geometry)
+
+
 def _obstacles(
-    plant, query, geometry, X_SW: RigidTransform, prepared: Prepared, label: str
+    plant, inspector, geometry, X_SG: RigidTransform, prepared: Prepared, label: str
 ) -> list[sc.Obstacle] | float:
-    """One collision geometry as obstacles (a mesh: its convex pieces), or
-    a plane facing up as its height."""
-    inspector = query.inspector()
+    """One collision geometry, at X_SG in the scenario, as obstacles (a
+    mesh: its convex pieces), or a plane facing up as its height."""
     body = plant.GetBodyFromFrameId(inspector.GetFrameId(geometry))
     model = plant.GetModelInstanceName(body.model_instance())
     name = inspector.GetName(geometry).removeprefix(f"{model}::")
-    mesh = MESH_MARK.search(name)
-    if mesh:
-        name = name[: mesh.start()] + mesh[2]
+    mark = MARK.search(name)
+    if mark:
+        name = name[: mark.start()] + mark[3]
     where = f"world {label!r} model {model!r} geometry {name!r}"
     shape = inspector.GetShape(geometry)
-    X_SG = X_SW @ query.GetPoseInWorld(geometry)
-    if isinstance(shape, HalfSpace):
-        if X_SG.rotation().matrix()[2, 2] < 1.0 - 1e-9:
-            raise ValueError(
-                f"model {model!r} geometry {name!r}: a plane is a ground only "
-                "facing up (+z)"
-            )
+    if isinstance(shape, HalfSpace) or (mark and mark[1] == "plane"):
+        normal, origin = prepared.planes[int(mark[2])] if mark else ([0, 0, 1], "")
+        n_S = X_SG.rotation().matrix() @ normal
+        if n_S[2] < (1.0 - 1e-9) * np.linalg.norm(n_S):
+            cause = f"model {model!r} geometry {name!r}: a plane is a ground only "
+            cause += "facing up (+z)"
+            raise ValueError(f"{origin}: {cause}" if origin else cause)
         return float(X_SG.translation()[2])
     if type(shape) not in (*_SHAPES, Mesh):
         raise ValueError(
@@ -213,10 +222,10 @@ def _obstacles(
     )
     if isinstance(shape, Mesh) and prepared.kind == "mjcf":  # MuJoCo: its hull
         shape = Convex(shape.source(), shape.scale3())
-    if mesh or isinstance(shape, Mesh):
+    if mark or isinstance(shape, Mesh):
         path, scale, origin = (
-            prepared.meshes[int(mesh[1])]
-            if mesh
+            prepared.meshes[int(mark[2])]
+            if mark
             else (str(shape.source().path()), shape.scale3(), "")
         )
         try:
