@@ -54,6 +54,7 @@ from mfi_drake.world.model_files import (
 MARK = re.compile(r"__mfi_(mesh|plane)_(\d+)__(.*)$")
 CONVEX = "drake:declare_convex"  # Drake's: a mesh flown as its hull
 MAX_DEPTH = 32  # includes nested deeper are a loop
+PART = 250  # models a part (Drake parses 250 in 0.1 s, 2000 in 8 s)
 # What Drake needs of SDFormat and URDF: the children and attributes kept.
 SDF = {
     "sdf": ({"world", "model"}, {"version"}),
@@ -107,11 +108,13 @@ SHOWN = ("plugin", "light", "actor", "sensor", "visual", "gui", "heightmap")
 
 @dataclass
 class Prepared:
-    """A world file rewritten for Drake: `text` in format `kind` ("sdf",
-    "urdf"), the collision meshes its placeholders number, what was read
-    past, and where each element of `text` came from."""
+    """A world file rewritten for Drake: `texts` in format `kind` ("sdf",
+    "urdf"), each parsed apart (a world's models in parts: Drake's parse
+    time grows as their number squared), the collision meshes and planes
+    its placeholders number, what was read past, and where each element of
+    each text came from."""
 
-    text: str = ""
+    texts: list[str] = field(default_factory=list)
     kind: str = "sdf"
     # Each placeholder's mesh: its file, scale and the "file:line" naming it;
     # each plane's: its normal (in its collision's frame) and "file:line".
@@ -119,13 +122,13 @@ class Prepared:
     planes: list[tuple[list[float], str]] = field(default_factory=list)
     read_past: Counter = field(default_factory=Counter)
     unknown: Counter = field(default_factory=Counter)
-    starts: list[int] = field(default_factory=list)  # line of each element
-    sources: list[str] = field(default_factory=list)  # its "file:line"
+    starts: list[list[int]] = field(default_factory=list)  # each element's line
+    sources: list[list[str]] = field(default_factory=list)  # its "file:line"
 
-    def source(self, line: int) -> str:
-        """The "file:line" of what is on line `line` of `text`."""
-        k = bisect_right(self.starts, line) - 1
-        return self.sources[max(k, 0)]
+    def source(self, part: int, line: int) -> str:
+        """The "file:line" of what is on line `line` of `texts[part]`."""
+        k = bisect_right(self.starts[part], line) - 1
+        return self.sources[part][max(k, 0)]
 
     def summary(self) -> str:
         """What was read past, in one line ("" for nothing worth saying)."""
@@ -377,6 +380,34 @@ class _Reader:
         self.out.meshes.append((path, scale, where))
         return self.placeholder(element, f"mesh_{len(self.out.meshes) - 1}")
 
+    def parts(self, kept: ET.Element) -> list[ET.Element]:
+        """A world of more than PART models as worlds of PART models each,
+        unless a model is posed relative to another frame or the world
+        holds frames (which all parts would need)."""
+        world = kept.find("world")
+        models = world.findall("model") if world is not None else []
+        related = [m.find("pose") for m in models if m.find("pose") is not None]
+        if (
+            len(models) <= PART
+            or world.find("frame") is not None
+            or any(pose.get("relative_to") for pose in related)
+        ):
+            return [kept]
+        parts = []
+        for k in range(0, len(models), PART):
+            sdf, part = (
+                ET.Element("sdf", kept.attrib),
+                ET.Element("world", world.attrib),
+            )
+            self.origins[sdf], self.origins[part] = (
+                self.origins[kept],
+                self.origins[world],
+            )
+            sdf.append(part)
+            part.extend(models[k : k + PART])
+            parts.append(sdf)
+        return parts
+
     def placeholder(self, collision: ET.Element, mark: str) -> ET.Element:
         """`collision` with a unit box for its shape, renamed with `mark`
         (`MARK`): Drake poses the box; what it stands for is the mark's."""
@@ -417,12 +448,13 @@ def prepare(path: str, model_paths: list[str]) -> Prepared:
     reader.origins.update(origins)
     reader.out.kind = "sdf" if rules is SDF else "urdf"
     kept = reader.keep(root, rules, os.path.dirname(path))
-    ET.indent(kept)
     out = reader.out
-    out.text = ET.tostring(kept, encoding="unicode")
-    again, lines = read_xml("generated", out.text)
-    out.starts = [int(lines[e].rsplit(":", 1)[1]) for e in again.iter()]
-    out.sources = [reader.origins[e] for e in kept.iter()]
+    for part in reader.parts(kept):
+        ET.indent(part)
+        out.texts.append(ET.tostring(part, encoding="unicode"))
+        again, lines = read_xml("generated", out.texts[-1])
+        out.starts.append([int(lines[e].rsplit(":", 1)[1]) for e in again.iter()])
+        out.sources.append([reader.origins[e] for e in part.iter()])
     return out
 
 

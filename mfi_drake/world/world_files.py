@@ -92,9 +92,12 @@ class _DrakeWarnings(logging.Handler):
         self.messages.append(" ".join(record.getMessage().split()))
 
 
-def _parse(path: str, prepared: Prepared, plant, heard: _DrakeWarnings) -> list:
-    """The model instances Drake's Parser adds for the file; RuntimeError
-    turned into ValueError naming the file and line of its cause."""
+def _parse(
+    path: str, prepared: Prepared, part: int, plant, heard: _DrakeWarnings
+) -> list:
+    """The model instances Drake's Parser adds for part `part` of the file;
+    RuntimeError turned into ValueError naming the file and line of its
+    cause."""
     from pydrake.multibody.parsing import Parser
 
     logger = logging.getLogger("drake")
@@ -104,13 +107,13 @@ def _parse(path: str, prepared: Prepared, plant, heard: _DrakeWarnings) -> list:
         parser = Parser(plant)
         if prepared.kind == "mjcf":
             return parser.AddModels(path)
-        return parser.AddModelsFromString(prepared.text, prepared.kind)
+        return parser.AddModelsFromString(prepared.texts[part], prepared.kind)
     except (RuntimeError, SystemExit) as e:  # SystemExit: a failed Drake check
         lines = [line for line in str(e).splitlines() if line.strip()] or ["?"]
         cause = lines[0]
         found = re.search(r":(\d+): (?:error: )?(.*)", cause)
         if found and prepared.kind != "mjcf":
-            cause = f"{prepared.source(int(found[1]))}: {found[2]}"
+            cause = f"{prepared.source(part, int(found[1]))}: {found[2]}"
         elif not cause.startswith(path):
             cause = f"{path}: {cause}"
         if heard.messages:  # Drake's own cause is often a warning before it
@@ -142,33 +145,14 @@ def world_obstacles(
         raise ValueError(f"no such file ({path})")
     X_SW = X_SW if X_SW is not None else RigidTransform()
     prepared = prepare(path, list(model_paths))
-    # Imported here: pydrake.multibody's import costs ~0.2 s that a scenario
-    # without a world does not pay.
-    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
-
-    quiet_half_spaces()  # a plane is the ground
-    builder = DiagramBuilder()
-    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
     heard = _DrakeWarnings()
-    _parse(path, prepared, plant, heard)
-    try:
-        plant.Finalize()
-    except (RuntimeError, SystemExit) as e:
-        raise ValueError(f"{path}: {str(e).splitlines()[0]}") from None
-    # Every model stands where its file puts it (its joints at their
-    # defaults): the plant's default poses, composed here, not by a
-    # SceneGraph context, whose broadphase (FCL) crashes with a half space
-    # (a world's ground plane) among thousands of geometries.
-    context = plant.CreateDefaultContext()
-    inspector = scene_graph.model_inspector()
     obstacles, grounds = [], []
-    for geometry in inspector.GetAllGeometryIds(Role.kProximity):
-        X_WG = _pose(plant, context, inspector, geometry)
-        found = _obstacles(plant, inspector, geometry, X_SW @ X_WG, prepared, label)
-        if isinstance(found, float):
-            grounds.append(found)
-        else:
-            obstacles += found
+    for part in range(max(len(prepared.texts), 1)):  # MJCF: its file, whole
+        for found in _part(path, prepared, part, heard, X_SW, label):
+            if isinstance(found, float):
+                grounds.append(found)
+            else:
+                obstacles += found
     if not obstacles and not grounds:
         raise ValueError("holds no collision geometry")
     notes = prepared.summary()
@@ -178,6 +162,46 @@ def world_obstacles(
             f"{len(heard.messages)} Drake warnings (the first: {heard.messages[0]})"
         )
     return World(obstacles, max(grounds, default=None), notes)
+
+
+def _part(
+    path: str,
+    prepared: Prepared,
+    part: int,
+    heard: _DrakeWarnings,
+    X_SW: RigidTransform,
+    label: str,
+) -> list[list[sc.Obstacle] | float]:
+    """Each collision geometry of one part of a prepared file, parsed into
+    a throwaway plant: its obstacles, or its height for a plane."""
+    # Imported here: pydrake.multibody's import costs ~0.2 s that a scenario
+    # without a world does not pay.
+    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+
+    quiet_half_spaces()  # an MJCF's plane is the ground
+    plant, scene_graph = AddMultibodyPlantSceneGraph(DiagramBuilder(), 0.0)
+    _parse(path, prepared, part, plant, heard)
+    try:
+        plant.Finalize()
+    except (RuntimeError, SystemExit) as e:
+        raise ValueError(f"{path}: {str(e).splitlines()[0]}") from None
+    # Every model stands where its file puts it (its joints at their
+    # defaults): the plant's default poses, composed here, not by a
+    # SceneGraph context, whose broadphase (FCL) crashes with a half space
+    # among thousands of geometries.
+    context = plant.CreateDefaultContext()
+    inspector = scene_graph.model_inspector()
+    return [
+        _obstacles(
+            plant,
+            inspector,
+            geometry,
+            X_SW @ _pose(plant, context, inspector, geometry),
+            prepared,
+            label,
+        )
+        for geometry in inspector.GetAllGeometryIds(Role.kProximity)
+    ]
 
 
 def _pose(plant, context, inspector, geometry) -> RigidTransform:
