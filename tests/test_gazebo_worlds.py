@@ -15,6 +15,7 @@ from mfi_drake.app.cli import main
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.worlds import ScenarioWarning
 from mfi_drake.flight.simulation import simulate
+from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.point_clouds import write_ply
 from mfi_drake.world.sdformat import prepare
 from mfi_drake.world.validation import load_scenario
@@ -172,6 +173,45 @@ def test_a_fuel_uri_is_its_newest_download_or_a_folder_of_its_name(
     assert [o.name.split("model ")[1] for o in scenario.obstacles] == [
         "'crate' geometry 'collision' piece 0"  # the folder's model
     ]
+
+
+def _world_file(tmp_path, models: str) -> str:
+    (tmp_path / "w.world").write_text(
+        f'<sdf version="1.9"><world name="w">{models}</world></sdf>'
+    )
+    return str(tmp_path / "w.world")
+
+
+def test_a_plane_not_facing_up_is_a_slab_under_it(tmp_path):
+    """A wall given as a plane at y = 3 facing -y: solid beyond it, the
+    distances from points before it their distances to y = 3."""
+    path = _world_file(
+        tmp_path,
+        '<model name="m"><static>true</static><link name="l"><collision name="c">'
+        "<pose>0 3 0 0 0 0</pose><geometry><plane><normal>0 -1 0</normal>"
+        "</plane></geometry></collision></link></model>",
+    )
+    scenario = sc.Scenario(obstacles=world_obstacles(path, "w.world").obstacles)
+    points = [[0, 0, 1.5], [5, 2, -4], [-7, 2.9, 10]]
+    np.testing.assert_allclose(
+        obstacle_distances(scenario, points), [3.0, 1.0, 0.1], atol=1e-9
+    )
+
+
+def test_a_link_posed_relative_to_a_joint_is_where_the_joint_puts_it(tmp_path):
+    """Joints are read past, but the frames they define stay: l2 is 0.5 m
+    above the joint, which is 1 m along l1's x (l1 at x = 2)."""
+    path = _world_file(
+        tmp_path,
+        '<model name="m"><pose>2 0 0 0 0 0</pose><link name="l1"/>'
+        '<link name="l2"><pose relative_to="j">0 0 0.5 0 0 0</pose>'
+        '<collision name="c"><geometry><sphere><radius>0.2</radius></sphere>'
+        '</geometry></collision></link><joint name="j" type="revolute">'
+        '<pose relative_to="l1">1 0 0 0 0 0</pose><parent>l1</parent>'
+        "<child>l2</child><axis><xyz>0 0 1</xyz></axis></joint></model>",
+    )
+    (ball,) = world_obstacles(path, "w.world").obstacles
+    np.testing.assert_allclose(ball.position, [3.0, 0.0, 0.5], atol=1e-12)
 
 
 def test_a_state_inserts_and_deletes_models(tmp_path):

@@ -231,21 +231,10 @@ def test_a_convex_mesh_of_a_world_is_its_hull_inline(tmp_path):
 
 
 NO_COLLISION = SDF.split("<collision")[0] + "</link>\n  </model>\n</sdf>\n"
-PLANE = SDF.replace(
-    "<sphere><radius>0.5</radius></sphere>",
-    "<plane><normal>0 1 0</normal><size>9 9</size></plane>",
-)
 BAD_WORLDS = [
     ("missing", None, "w.sdf", "no such file"),
     ("not xml", "<sdf version='1.9'><model", "w.sdf", "w.sdf:1: not well-formed XML"),
     ("no collision", NO_COLLISION, "w.sdf", "holds no collision geometry"),
-    (
-        "plane",
-        PLANE,
-        "w.sdf",
-        "w.sdf:14: model 'scene' geometry 'ball': a plane is a ground only facing up "
-        "(+z)",
-    ),
     ("suffix", SDF, "w.txt", "must be a Gazebo world or model (.world, .sdf)"),
 ]
 

@@ -36,15 +36,27 @@ def read_xml(path: str, text: str | None = None) -> tuple[ET.Element, dict]:
     try:
         if text is None:
             with open(path, "rb") as f:
-                parser.ParseFile(f)
-        else:
-            parser.Parse(text, True)
+                text = f.read()
+        parser.Parse(_lenient(text), True)
     except xml.parsers.expat.ExpatError as e:
         line = getattr(e, "lineno", parser.CurrentLineNumber)
         raise ValueError(f"{path}:{line}: not well-formed XML: {e}") from None
     except (OSError, RecursionError) as e:
         raise ValueError(f"{path}: not readable: {e}") from None
     return root[0], origins
+
+
+def _lenient(text: str | bytes) -> bytes:
+    """`text` with "--" inside comments written "- " (XML forbids it;
+    Gazebo's parser, TinyXML2, reads it, and Gazebo's own example worlds
+    hold it), the lines unchanged."""
+    data = text.encode() if isinstance(text, str) else text
+    return re.sub(
+        rb"<!--(.*?)-->",
+        lambda m: b"<!--" + m[1].replace(b"--", b"- ") + b"-->",
+        data,
+        flags=re.S,
+    )
 
 
 def _no_entities(name, *_) -> None:

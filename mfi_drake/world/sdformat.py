@@ -59,7 +59,11 @@ PART = 250  # models a part (Drake parses 250 in 0.1 s, 2000 in 8 s)
 SDF = {
     "sdf": ({"world", "model"}, {"version"}),
     "world": ({"model", "include", "frame"}, {"name"}),
-    "model": ({"static", "pose", "link", "model", "include", "frame"}, {"name"}),
+    "model": (
+        {"static", "pose", "link", "model", "include", "frame", "joint"},
+        {"name"},
+    ),
+    "joint": ({"pose", "child"}, {"name"}),  # kept as the frame it defines
     "link": ({"pose", "collision"}, {"name"}),
     "collision": ({"pose", "geometry"}, {"name"}),
     "frame": ({"pose"}, {"name", "attached_to"}),
@@ -222,8 +226,10 @@ class _Reader:
         """What each kind of element becomes once its children are kept."""
         if copy.tag == "collision":
             return self.collision(copy, folder)
-        if copy.tag == "joint":  # a URDF's: held at zero
+        if copy.tag == "joint" and self.out.kind == "urdf":  # held at zero
             copy.set("type", "fixed")
+        elif copy.tag == "joint":  # a static model's: the frame poses may name
+            return self.joint_frame(copy)
         if copy.tag == "model":
             if not any(c.tag in ("link", "model") for c in copy):
                 return None
@@ -235,6 +241,23 @@ class _Reader:
         if copy.tag == "world":
             self.state(copy, element, folder)
         return copy
+
+    def joint_frame(self, joint: ET.Element) -> ET.Element:
+        """An SDFormat joint of a static model as the frame it defines
+        (attached to its child, posed relative to it unless it says)."""
+        child = " ".join((joint.findtext("child") or "").split())
+        frame = ET.Element(
+            "frame", {"name": joint.get("name", ""), "attached_to": child}
+        )
+        pose = joint.find("pose")
+        if pose is None:
+            pose = ET.Element("pose")
+            pose.text = "0 0 0 0 0 0"
+        if not pose.get("relative_to"):
+            pose.set("relative_to", child)
+        frame.append(pose)
+        self.origins[frame] = self.origins[pose] = self.origins[joint]
+        return frame
 
     def state(self, world: ET.Element, source: ET.Element, folder: str) -> None:
         """The world's <state> applied as Gazebo applies it: its inserted

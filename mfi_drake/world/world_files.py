@@ -32,7 +32,7 @@ from pydrake.geometry import (
     Role,
     Sphere,
 )
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.systems.framework import DiagramBuilder
 
 from mfi_drake.config import scenario as sc
@@ -50,6 +50,7 @@ WORLD_SUFFIXES = (".sdf", ".world", ".urdf", ".xml", ".mjcf")
 # (or radians of whole degrees) comes back as the number written and flies
 # as the same pose written as `obstacles:` would, bit for bit.
 RPY_DECIMALS = 12
+SLAB = (1000.0, 1000.0, 10.0)  # m: a plane that is not the ground, flown as this
 
 
 def _hull(shape: Convex) -> sc.Convex:
@@ -226,13 +227,15 @@ def _obstacles(
     where = f"world {label!r} model {model!r} geometry {name!r}"
     shape = inspector.GetShape(geometry)
     if isinstance(shape, HalfSpace) or (mark and mark[1] == "plane"):
-        normal, origin = prepared.planes[int(mark[2])] if mark else ([0, 0, 1], "")
+        normal = prepared.planes[int(mark[2])][0] if mark else [0, 0, 1]
         n_S = X_SG.rotation().matrix() @ normal
-        if n_S[2] < (1.0 - 1e-9) * np.linalg.norm(n_S):
-            cause = f"model {model!r} geometry {name!r}: a plane is a ground only "
-            cause += "facing up (+z)"
-            raise ValueError(f"{origin}: {cause}" if origin else cause)
-        return float(X_SG.translation()[2])
+        n_S = n_S / np.linalg.norm(n_S)
+        if n_S[2] >= 1.0 - 1e-9:
+            return float(X_SG.translation()[2])
+        # A plane not facing up: a slab under it (the ground is horizontal).
+        p_S = X_SG.translation() - n_S * SLAB[2] / 2
+        X_SG = RigidTransform(RotationMatrix.MakeFromOneVector(n_S, 2), p_S)
+        shape = Box(*SLAB)
     if type(shape) not in (*_SHAPES, Mesh):
         raise ValueError(
             f"model {model!r} geometry {name!r}: a {type(shape).__name__} "
@@ -246,10 +249,11 @@ def _obstacles(
     )
     if isinstance(shape, Mesh) and prepared.kind == "mjcf":  # MuJoCo: its hull
         shape = Convex(shape.source(), shape.scale3())
-    if mark or isinstance(shape, Mesh):
+    mesh = mark and mark[1] == "mesh"
+    if mesh or isinstance(shape, Mesh):
         path, scale, origin = (
             prepared.meshes[int(mark[2])]
-            if mark
+            if mesh
             else (str(shape.source().path()), shape.scale3(), "")
         )
         try:
