@@ -182,6 +182,20 @@ def _world_file(tmp_path, models: str) -> str:
     return str(tmp_path / "w.world")
 
 
+def test_what_gazebos_parser_reads_and_xml_forbids_is_read(tmp_path):
+    """A comment before the XML declaration, "--" in a comment (Gazebo's
+    own cafe.world and empty.sdf hold them): read, the lines kept."""
+    (tmp_path / "w.world").write_text(
+        "<!-- Usage: gz service --reqtype x -- see below -->\n"
+        '<?xml version="1.0" ?>\n<sdf version="1.6">\n<world name="w">\n'
+        "<model name='m'><pose>3 0 1 0 0 0</pose><link name='l'>\n"
+        "<collision name='c'><geometry><box><size>1 1 x</size></box>\n"
+        "</geometry></collision></link></model></world></sdf>\n"
+    )
+    with pytest.raises(ValueError, match=r"w.world:6: .*size"):
+        world_obstacles(str(tmp_path / "w.world"), "w.world")
+
+
 def test_a_plane_not_facing_up_is_a_slab_under_it(tmp_path):
     """A wall given as a plane at y = 3 facing -y: solid beyond it, the
     distances from points before it their distances to y = 3."""

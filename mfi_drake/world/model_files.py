@@ -47,10 +47,13 @@ def read_xml(path: str, text: str | None = None) -> tuple[ET.Element, dict]:
 
 
 def _lenient(text: str | bytes) -> bytes:
-    """`text` with "--" inside comments written "- " (XML forbids it;
-    Gazebo's parser, TinyXML2, reads it, and Gazebo's own example worlds
-    hold it), the lines unchanged."""
+    """`text` with "--" inside comments written "- " and an XML declaration
+    after a comment left out (XML forbids both; Gazebo's parser, TinyXML2,
+    reads them, and Gazebo's own example worlds hold them), the lines
+    unchanged."""
     data = text.encode() if isinstance(text, str) else text
+    if not data.lstrip().startswith(b"<?xml"):  # a declaration after a comment
+        data = re.sub(rb"<\?xml[^>]*\?>", b"", data)
     return re.sub(
         rb"<!--(.*?)-->",
         lambda m: b"<!--" + m[1].replace(b"--", b"- ") + b"-->",
