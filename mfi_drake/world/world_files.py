@@ -269,6 +269,11 @@ def _placed(points: list[list[float]], X_SW: RigidTransform) -> list[list[float]
     return (X_SW.multiply(np.asarray(points, float).T).T).tolist()
 
 
+def _beside(text: str, scenario: sc.Scenario) -> str:
+    """`text` naming the files beside the YAML file as the YAML names them."""
+    return text.replace(os.path.join(scenario.base_dir, ""), "")
+
+
 def with_files(scenario: sc.Scenario, where: str) -> sc.Scenario:
     """`scenario` as it flies anywhere: its world file's obstacles after its
     own (its upward plane its ground, unless it has one: then its own is
@@ -292,10 +297,10 @@ def with_files(scenario: sc.Scenario, where: str) -> sc.Scenario:
         folders = [os.path.join(scenario.base_dir, f) for f in scenario.model_paths]
         try:
             found = world_obstacles(path, scenario.world, folders, X_SW)
-        except ValueError as e:  # files beside the YAML named as the YAML names them
-            reason = str(e).replace(os.path.join(scenario.base_dir, ""), "")
-            sc.fail(where, "world", scenario.world, reason)
-        notes, ground = [found.notes] if found.notes else [], scenario.ground
+        except ValueError as e:
+            sc.fail(where, "world", scenario.world, _beside(str(e), scenario))
+        notes = [_beside(found.notes, scenario)] if found.notes else []
+        ground = scenario.ground
         if found.ground is not None and ground is not None:
             notes.append(
                 f"its ground plane at z = {found.ground:g} m is not read: the "
