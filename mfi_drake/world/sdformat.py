@@ -107,7 +107,8 @@ _KNOWN = (
     "calibration mimic contact uri name static placement_frame"
 )
 KNOWN = frozenset(_KNOWN.split())
-SHOWN = ("plugin", "light", "actor", "sensor", "visual", "gui", "heightmap")
+_SHOWN = "plugin light actor sensor visual gui heightmap population"
+SHOWN = tuple(_SHOWN.split())  # in the one line (the last two: geometry not read)
 
 
 @dataclass
