@@ -10,10 +10,10 @@ metrics (at the logged times, where obstacles move).
 import logging
 
 import numpy as np
+from pydrake.geometry import Box as DrakeBox
 from pydrake.geometry import (
     GeometryFrame,
     GeometryInstance,
-    HalfSpace,
     IllustrationProperties,
     PerceptionProperties,
     ProximityProperties,
@@ -32,6 +32,17 @@ from mfi_drake.world.shapes import drake_shape, shape_mesh
 
 OBSTACLE_RGBA = Rgba(0.55, 0.55, 0.6, 0.6)
 GROUND_RGBA = Rgba(0.45, 0.6, 0.4, 1.0)
+# [m] The ground is a box this wide and deep whose top face is the ground
+# plane, not Drake's HalfSpace: FCL gives a half space an AABB reaching to
+# ±DBL_MAX, on which its broadphase tree (built over the anchored geometry)
+# does arithmetic that overflows; with ~100 or more other geometries the
+# tree comes out corrupt and SceneGraph's copy of it (every new context)
+# crashes with a segmentation fault (Drake issue #19263, FCL's
+# DynamicAABBTreeCollisionManager; docs/performance.md, "Big scenes"). Above
+# the box, within its width, its distance is the half space's, exactly:
+# the top face's. The depth keeps the rounding of that distance at ~1e-14 m.
+GROUND_WIDTH = 2.0e4
+GROUND_DEPTH = 100.0
 
 
 def obstacle_triangles(
@@ -68,8 +79,8 @@ def register_obstacles(
     clearance), perception (depth camera) and illustration roles: a static
     one as anchored geometry, a moving one on a frame of its own, whose
     poses the returned `ObstacleFrames` gives. The ground is an anchored
-    half space, sensed and measured but not illustrated (Meshcat draws no
-    half space; `app.animation` draws it)."""
+    box under the ground plane (GROUND_WIDTH: not a HalfSpace), sensed and
+    measured but not illustrated (`app.animation` draws it)."""
     source = scene_graph.RegisterSource("obstacles")
     moving = []
     for i, obstacle in enumerate(scenario.obstacles):
@@ -90,10 +101,9 @@ def register_obstacles(
         else:
             scene_graph.RegisterGeometry(source, frame, instance)
     if scenario.ground is not None:
-        quiet_half_spaces()
         ground = GeometryInstance(
-            HalfSpace.MakePose([0.0, 0.0, 1.0], [0.0, 0.0, scenario.ground.height]),
-            HalfSpace(),
+            RigidTransform([0.0, 0.0, scenario.ground.height - GROUND_DEPTH / 2]),
+            DrakeBox(GROUND_WIDTH, GROUND_WIDTH, GROUND_DEPTH),
             "ground",
         )
         sensed(ground, GROUND_RGBA, RenderLabel(len(scenario.obstacles) + 1))
