@@ -165,7 +165,8 @@ def test_a_million_points_load(tmp_path):
 
 def _nan_map(tmp_path):
     points = np.ones((10, 3))
-    points[3, 1] = np.nan
+    points[:, 1] = np.nan
+    points[3, 0] = np.inf
     write_ply(str(tmp_path / "map.ply"), points)
 
 
@@ -183,7 +184,7 @@ BAD_MAPS = [
         "",
         "holds no points",
     ),
-    ("not finite", _nan_map, "", "1 points are not finite (the first: point 3"),
+    ("not finite", _nan_map, "", "holds no finite point (all 10 are NaN or inf)"),
     (
         "cameras",
         "wall",
