@@ -17,6 +17,7 @@ import warnings
 import numpy as np
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.config.worlds import ScenarioWarning
 from mfi_drake.maths.point_maps import downsample
 from mfi_drake.world.obstacles import obstacle_triangles
 
@@ -60,9 +61,6 @@ def with_map(scenario: sc.Scenario, where: str) -> sc.Scenario:
     except ValueError as e:
         sc.fail(where, "world", scenario.world, str(e))
     if dropped:
-        # Imported here: validation imports this module (through world_files).
-        from mfi_drake.world.validation import ScenarioWarning
-
         warnings.warn(
             f"{where}: world = {scenario.world!r}: {dropped} of "
             f"{dropped + len(points)} points are not finite (no return) and "

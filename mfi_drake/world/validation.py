@@ -18,6 +18,7 @@ from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
 from mfi_drake.config.scenario_yaml import layered_name, parse_scenario
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.worlds import ScenarioWarning
 from mfi_drake.world.meshes import enclosed_volume, read_obj
 from mfi_drake.world.obstacles import closest_obstacles, obstacle_distances
 from mfi_drake.world.shapes import convex_points, shape_mesh
@@ -40,10 +41,6 @@ def least_goal_gap(vehicle: str = "drake_default") -> float:
 
 
 GOAL_SAMPLES = 200  # times over the flight at which a moving obstacle is judged
-
-
-class ScenarioWarning(UserWarning):
-    """A scenario that can be flown but may not be what was meant."""
 
 
 def _check_mesh(where: str, scenario: sc.Scenario, shape: sc.Convex) -> None:
