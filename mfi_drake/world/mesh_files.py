@@ -19,8 +19,6 @@ import re
 
 import numpy as np
 
-from mfi_drake.world.meshes import read_obj
-
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".dae", ".gltf", ".glb")
 # Each up axis's rotation to z-up (rows: Drake's x, y, z from the file's).
 _TO_Z_UP = {
@@ -43,10 +41,7 @@ def read_mesh(path: str) -> tuple[np.ndarray, np.ndarray]:
         )
     if not os.path.isfile(path):
         raise ValueError(f"no such file ({path})")
-    if suffix == ".obj":  # the project's own reader: polygons, negative indices
-        vertices, triangles = read_obj(path)
-    else:
-        vertices, triangles = _trimesh(path, suffix)
+    vertices, triangles = _trimesh(path, suffix)
     if suffix == ".dae":
         meter, up = collada_asset(path)
         vertices = vertices @ _TO_Z_UP[up].T * meter
