@@ -93,6 +93,29 @@ def test_each_box_file_flies_as_the_box(name):
     np.testing.assert_allclose(got, expected, atol=1e-3)
 
 
+def test_meshes_are_decomposed_in_parallel_into_the_cache(monkeypatch):
+    """`prefetch_pieces` decomposes a closed mesh (CoACD) and an open one
+    (slabs) in worker processes: this process then reads both from the
+    cache (CoACD, made to fail here, is not called), the box's pieces the
+    box scaled."""
+    import coacd
+
+    from mfi_drake.world import decomposition
+
+    box, wall = os.path.join(DATA, "box_cm.dae"), os.path.join(DATA, "wall_open.obj")
+    decomposition.prefetch_pieces([(box, 2.0), (wall, 1.0)])
+    assert len(os.listdir(decomposition.cache_dir())) == 2  # one file a mesh
+
+    def fail(*args, **kwargs):
+        raise AssertionError("decomposed again")
+
+    monkeypatch.setattr(coacd, "run_coacd", fail)
+    pieces = mesh_obstacles(sc.Obstacle(), box, 2.0, "box")
+    hull = np.concatenate([p.shape.vertices for p in pieces])
+    np.testing.assert_allclose(np.ptp(hull, axis=0), SIZE * 2.0, atol=1e-3)
+    assert len(mesh_obstacles(sc.Obstacle(), wall, 1.0, "wall")) == 16
+
+
 def test_gltf_axes_are_drakes():
     """The glTF's y-up axes turned z-up as Drake's own glTF reader turns
     them: the same hull."""

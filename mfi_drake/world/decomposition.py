@@ -7,12 +7,18 @@ as thin slabs over its surface (`world.surfaces`).
 
 Decomposing costs seconds; the pieces are cached on disk under the user's
 cache directory, keyed by the mesh's vertices and triangles and by the
-decomposition's parameters, so a second flight does not pay again.
+decomposition's parameters, so a second flight does not pay again. A
+scenario's meshes are decomposed in parallel first, a process a core
+(`prefetch_pieces`), each filling the cache that `mesh_obstacles` then
+reads.
 """
 
+import concurrent.futures
+import contextlib
 import dataclasses
 import hashlib
 import json
+import multiprocessing
 import os
 
 import numpy as np
@@ -121,12 +127,40 @@ def mesh_obstacles(
     ]
 
 
+def _warm(path: str, scale) -> None:
+    """Fills the cache with the pieces of the mesh file `path`; a mesh that
+    cannot be read or decomposed is left for `mesh_obstacles` to refuse."""
+    with contextlib.suppress(ValueError):
+        mesh_pieces(*read_mesh(path), scale)
+
+
+def prefetch_pieces(meshes: list[tuple[str, object]]) -> None:
+    """Decomposes the mesh files of `meshes` ((path, scale) pairs) at once,
+    a process a core, into the cache; one mesh or one core: nothing to
+    share, `mesh_obstacles` decomposes it."""
+    unique = list(dict.fromkeys((p, tuple(np.ravel(s).tolist())) for p, s in meshes))
+    workers = min(len(unique), os.cpu_count() or 1)
+    if workers < 2:
+        return
+    # Spawned, not forked: the parent may hold threads (numba, Drake).
+    spawn = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(workers, mp_context=spawn) as pool:
+        list(pool.map(_warm, *zip(*unique, strict=True)))
+
+
 def with_meshes(scenario: sc.Scenario, where: str) -> sc.Scenario:
     """`scenario` with each `!Mesh` obstacle replaced by its convex pieces,
     in place; itself without one. Raises ScenarioError naming `where`, the
     obstacle and the file."""
     if not any(isinstance(o.shape, sc.Mesh) for o in scenario.obstacles):
         return scenario
+    prefetch_pieces(
+        [
+            (os.path.join(scenario.base_dir, o.shape.file), o.shape.scale)
+            for o in scenario.obstacles
+            if isinstance(o.shape, sc.Mesh)
+        ]
+    )
     obstacles = []
     for i, obstacle in enumerate(scenario.obstacles):
         shape = obstacle.shape
