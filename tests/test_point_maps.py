@@ -150,7 +150,8 @@ def test_the_compiled_basins_are_the_persistent_minima(dip):
         indptr = np.searchsorted(ends[order], np.arange(graph.count + 1))
         others = np.concatenate([graph.b, graph.a])[order]
         count = int(rng.integers(1, 13))
-        got = map_kernels.basins(nearest, indptr, others, count, dip)
+        nodes = np.arange(graph.count)
+        got = map_kernels.basins(nearest, (nodes, indptr, others, nodes), count, dip)
         expected = persistent_minima(nearest, graph.a, graph.b, count, dip)
         np.testing.assert_array_equal(got, expected, err_msg=f"trial {trial}")
 

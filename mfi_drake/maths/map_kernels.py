@@ -33,31 +33,33 @@ def voxel_nearest(xyz, runs, balls, position, radius2):
         cx, cy, cz = balls[k, 0] - px, balls[k, 1] - py, balls[k, 2] - pz
         if np.sqrt(cx * cx + cy * cy + cz * cz) - balls[k, 3] > reach:
             continue
-        least = np.inf
+        # The first nearest point of all; within the radius or none is.
+        least, first = np.inf, -1
         for j in range(runs[k], runs[k + 1]):
             dx, dy, dz = xyz[0, j] - px, xyz[1, j] - py, xyz[2, j] - pz
             d2 = dx * dx + dy * dy + dz * dz
-            if d2 <= radius2 and d2 < least:
-                least, best[k] = d2, j
-        if best[k] >= 0:
-            nearest[k] = np.sqrt(least)
+            if d2 < least:
+                least, first = d2, j
+        if least <= radius2:
+            nearest[k], best[k] = np.sqrt(least), first
     return nearest, best
 
 
 @numba.njit(cache=True)
-def _reaches_nearer(m, nearest, indptr, indices, level, seen, stack):
+def _reaches_nearer(m, nearest, graph, level, seen, stack):
     """Whether the component of voxel m among the voxels no farther than
     `level` holds one nearer than m (a flood from m that stops there)."""
+    voxels, indptr, indices, local = graph
     seen[:] = False
     seen[m] = True
     stack[0] = m
     top = 1
     while top:
         top -= 1
-        v = stack[top]
+        v = voxels[stack[top]]
         for e in range(indptr[v], indptr[v + 1]):
-            u = indices[e]
-            if seen[u] or not nearest[u] <= level:
+            u = local[indices[e]]
+            if u < 0 or seen[u] or not nearest[u] <= level:
                 continue
             if nearest[u] < nearest[m]:
                 return True
@@ -68,32 +70,38 @@ def _reaches_nearer(m, nearest, indptr, indices, level, seen, stack):
 
 
 @numba.njit(cache=True)
-def basins(nearest, indptr, indices, count, dip):
+def basins(nearest, graph, count, dip):
     """`perception.persistent_minima` of the voxels holding a point (those
-    of finite `nearest`), neighbours by the CSR adjacency (indptr,
-    indices); a voxel index orders ties, as there."""
-    voxels = len(nearest)
-    minimum = np.zeros(voxels, dtype=np.bool_)
-    for v in range(voxels):
+    of finite `nearest`). graph = (voxels, indptr, indices, local): voxel
+    k is the graph's node voxels[k], whose neighbours are the nodes
+    indices[indptr[n]:indptr[n + 1]] of node n (CSR), each voxel local[n]
+    (−1: a node not among these voxels); voxel indices order ties, as
+    there."""
+    voxels, indptr, indices, local = graph
+    size = len(nearest)
+    minimum = np.zeros(size, dtype=np.bool_)
+    for v in range(size):
         if not np.isfinite(nearest[v]):
             continue
         minimum[v] = True
-        for e in range(indptr[v], indptr[v + 1]):
-            u = indices[e]
+        for e in range(indptr[voxels[v]], indptr[voxels[v] + 1]):
+            u = local[indices[e]]
+            if u < 0:
+                continue
             if nearest[u] < nearest[v] or (nearest[u] == nearest[v] and u < v):
                 minimum[v] = False
                 break
     minima = np.flatnonzero(minimum)
     order = minima[np.argsort(nearest[minima], kind="mergesort")]
     found = np.empty(min(count, len(order)), dtype=np.int64)
-    seen = np.zeros(voxels, dtype=np.bool_)
-    stack = np.empty(voxels, dtype=np.int64)
+    seen = np.zeros(size, dtype=np.bool_)
+    stack = np.empty(size, dtype=np.int64)
     k = 0
     for m in order:
         if k == len(found):
             break
         level = nearest[m] + dip
-        if k and _reaches_nearer(m, nearest, indptr, indices, level, seen, stack):
+        if k and _reaches_nearer(m, nearest, graph, level, seen, stack):
             continue
         found[k] = m
         k += 1

@@ -100,6 +100,7 @@ class MapReader:
         by_end = np.argsort(ends, kind="stable")
         self._adjacent = np.searchsorted(ends[by_end], np.arange(graph.count + 1))
         self._neighbours = np.concatenate([graph.b, graph.a])[by_end]
+        self._local = np.full(graph.count, -1)  # each voxel's run, if gathered
         self._tree = cKDTree(self._points)
         self._radius = float(radius)
         self._centre = None  # where the kept points were gathered
@@ -111,11 +112,12 @@ class MapReader:
             np.linalg.norm(position - self._centre) > MARGIN * self._radius
         ):
             self._gather(position)
-        xyz, runs, balls, indptr, indices = self._near
+        xyz, runs, balls, voxels = self._near
         nearest, best = self._kernels.voxel_nearest(
             xyz, runs, balls, position, self._radius * self._radius
         )
-        found = self._kernels.basins(nearest, indptr, indices, OBSTACLE_COUNT, DIP)
+        graph = (voxels, self._adjacent, self._neighbours, self._local)
+        found = self._kernels.basins(nearest, graph, OBSTACLE_COUNT, DIP)
         # Each basin's nearest point, nearest first, ties in voxel order (as
         # `Groups.nearest` sorts them).
         offsets = []
@@ -127,11 +129,11 @@ class MapReader:
     def _gather(self, position: np.ndarray) -> None:
         """Keeps the points within r_s (1 + MARGIN) of `position`: their xyz
         (3, m); where each voxel's run of them starts (and the end); each
-        run's ball (centre, radius: (k, 4)); and the graph's edges between
-        those voxels (CSR, as run indices)."""
+        run's ball (centre, radius: (k, 4)); and each run's voxel, whose
+        run `_local` gives (the graph's other voxels: −1)."""
         reach = self._radius * (1.0 + MARGIN)
-        index = np.sort(np.asarray(self._tree.query_ball_point(position, reach)))
-        index = index.astype(np.int64)
+        index = self._tree.query_ball_point(position, reach, return_sorted=True)
+        index = np.asarray(index, dtype=np.int64)
         points, voxel = self._points[index], self._voxel_of[index]
         runs = np.flatnonzero(np.diff(voxel, prepend=-1))
         counts = np.diff(np.append(runs, len(index)))
@@ -139,20 +141,13 @@ class MapReader:
         centres = np.add.reduceat(points, runs, axis=0) / counts[:, None]
         spread = np.linalg.norm(points - np.repeat(centres, counts, axis=0), axis=1)
         balls = np.column_stack([centres, np.maximum.reduceat(spread, runs)])
-        # Each gathered voxel's neighbours, those gathered kept as run indices.
-        first = self._adjacent[voxels]
-        degree = self._adjacent[voxels + 1] - first
-        owner = np.repeat(np.arange(len(voxels)), degree)
-        slot = np.arange(degree.sum()) - np.repeat(np.cumsum(degree) - degree, degree)
-        neighbour = self._neighbours[np.repeat(first, degree) + slot]
-        local = np.minimum(np.searchsorted(voxels, neighbour), len(voxels) - 1)
-        kept = voxels[local] == neighbour
-        indptr = np.searchsorted(owner[kept], np.arange(len(voxels) + 1))
+        if self._centre is not None:
+            self._local[self._near[3]] = -1
+        self._local[voxels] = np.arange(len(voxels))
         self._near = (
             np.ascontiguousarray(points.T),
             np.append(runs, len(index)).astype(np.int64),
             balls,
-            indptr.astype(np.int64),
-            local[kept],
+            voxels,
         )
         self._centre = position.copy()
