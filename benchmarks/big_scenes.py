@@ -141,7 +141,8 @@ def row(scene: str, load, factors: tuple[float, float, str]) -> str:
     """A table row: `load` (seconds, peak MB) or None."""
     wall, cpu, outcome = factors
     loaded = f"{load[0]:.2f} | {load[1]:.0f}" if load else " | "
-    return f"| {scene} | {loaded} | {wall:.1f}×; {cpu:.1f}× | {outcome} |"
+    wall, cpu = (f"{x:.1f}" if x >= 1 else f"{x:.2f}" for x in (wall, cpu))
+    return f"| {scene} | {loaded} | {wall}×; {cpu}× | {outcome} |"
 
 
 def main(argv: list[str] | None = None) -> list[str]:

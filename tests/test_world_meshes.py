@@ -102,7 +102,7 @@ def test_meshes_are_decomposed_in_parallel_into_the_cache(monkeypatch):
 
     from mfi_drake.world import decomposition
 
-    box, wall = os.path.join(DATA, "box_cm.dae"), os.path.join(DATA, "wall_open.obj")
+    box, wall = os.path.join(DATA, "box_cm.dae"), os.path.join(DATA, "wall_open.ply")
     decomposition.prefetch_pieces([(box, 2.0), (wall, 1.0)])
     assert len(os.listdir(decomposition.cache_dir())) == 2  # one file a mesh
 
@@ -157,7 +157,7 @@ def test_an_open_wall_flies_as_its_surface():
     to the triangles within THICKNESS, and each closest point lies within
     THICKNESS of a triangle. The door stays open: its middle is 0.5 m
     from the wall's edges."""
-    path = os.path.join(DATA, "wall_open.obj")
+    path = os.path.join(DATA, "wall_open.ply")
     vertices, triangles = read_mesh(path)
     pieces = mesh_obstacles(sc.Obstacle(), path, 1.0, "wall")
     assert len(pieces) <= 20 < len(triangles)  # 16 slabs for 152 triangles
@@ -185,7 +185,7 @@ def test_an_open_mesh_scenario_loads(tmp_path):
     """`!Mesh` of the open wall in a scenario: loaded (no refusal), and the
     start 1 m in front of the wall is 1 m from it (within the slab)."""
     path = tmp_path / "wall.yaml"
-    wall = os.path.join(DATA, "wall_open.obj")
+    wall = os.path.join(DATA, "wall_open.ply")
     path.write_text(
         "start: [3.0, -1.0, 1.5]\ngoal: [3.0, -3.0, 1.5]\nduration: 5.0\n"
         f"obstacles:\n  - shape: !Mesh {{file: {wall}}}\n"

@@ -5,7 +5,7 @@ convention, all of one scene so a test can compare them with primitives:
   at the origin, as a binary and an ASCII STL, a PLY, a glTF and a GLB
   (y-up, as glTF is by spec: Drake's (x, y, z) is glTF's (x, z, −y)), a
   COLLADA file in centimetres (<unit meter="0.01">, Z_UP) and a Y_UP one;
-- wall_open.obj: two single-sided walls, 4 × 3 m with a door 1 m wide and
+- wall_open.ply: two single-sided walls, 4 × 3 m with a door 1 m wide and
   2 m tall at x ∈ [1.5, 2.5] in the plane y = 0, and 3 × 3 m in the plane
   x = 4, as 0.5 m grid squares: an open, flat mesh;
 - organized.pcd: an organized cloud (32 × 24, binary_compressed) of a wall
@@ -221,10 +221,7 @@ def main() -> None:
     write_dae(out("box_y_up.dae"), to_y_up(vertices), tris, 1.0, "Y_UP")
     write_gltf(out("box.gltf"), to_y_up(vertices), tris)
     write_glb(out("box.glb"), to_y_up(vertices), tris)
-    wall, wall_tris = wall_grid()
-    with open(out("wall_open.obj"), "w") as f:
-        f.writelines(f"v {x:g} {y:g} {z:g}\n" for x, y, z in wall)
-        f.writelines(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in wall_tris)
+    write_ply(out("wall_open.ply"), *wall_grid())
     write_organized_pcd(out("organized.pcd"))
 
 
