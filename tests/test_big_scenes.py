@@ -41,7 +41,7 @@ CROWD = textwrap.dedent(
 
 
 def test_a_thousand_obstacles_and_a_ground_load_without_crashing():
-    for seed in range(3):
+    for seed in range(2):
         run = subprocess.run(
             [sys.executable, "-c", CROWD.format(seed=seed)],
             cwd=ROOT,
