@@ -16,6 +16,7 @@ is a ValueError of one line.
 
 import os
 import re
+import warnings
 
 import numpy as np
 
@@ -62,7 +63,11 @@ def _trimesh(path: str, suffix: str) -> tuple[np.ndarray, np.ndarray]:
     import trimesh  # imported here: only a scenario with a mesh pays for it
 
     try:
-        loaded = trimesh.load(path, file_type=suffix[1:], force="mesh")
+        # trimesh's merge of equal vertices casts absurd coordinates (1e308)
+        # with a RuntimeWarning; the checks after reading judge the values.
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            loaded = trimesh.load(path, file_type=suffix[1:], force="mesh")
         vertices = np.asarray(loaded.vertices, dtype=float)
         triangles = np.asarray(loaded.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as e:  # the readers raise many kinds; the user needs one line
