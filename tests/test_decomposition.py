@@ -120,13 +120,13 @@ def test_pieces_are_cached_by_content(u_obj, monkeypatch):
 
 
 UNDECOMPOSABLE = [
-    ("no faces", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n", "has no faces"),
+    ("no faces", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n", "has no triangles"),
     (
-        "flat",
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n",
-        "cannot be decomposed: it encloses no volume",
+        "no area",
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n",
+        "has no surface: every triangle has zero area",
     ),
-    ("not obj", None, "a mesh to decompose must be a Wavefront OBJ file"),
+    ("empty stl", None, "has no triangles"),
     ("missing", "", "no such file"),
 ]
 

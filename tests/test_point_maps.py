@@ -19,7 +19,12 @@ from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.result import outcome
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import seen_points
-from mfi_drake.maths.point_maps import downsample, map_readings, nearest_points
+from mfi_drake.maths.point_maps import (
+    MapReader,
+    downsample,
+    map_readings,
+    nearest_points,
+)
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.point_clouds import surface_samples, write_ply
 from mfi_drake.world.validation import load_scenario
@@ -94,6 +99,63 @@ def test_map_readings_are_each_groups_nearest_point():
     np.testing.assert_allclose(seen, [[1.0, -0.02, -0.01]], atol=1e-12)
 
 
+def test_the_map_reader_reads_as_the_definition_bit_for_bit():
+    """`MapReader` against `map_readings` over every point (the reading's
+    definition, numpy): a room of boxes thinned as a map is, read along a
+    wandering path of small steps (kept neighbourhoods) and jumps (new
+    ones), from outside the map (nothing seen) and from inside boxes'
+    clutter; equal to the last bit, every reading."""
+    boxes = [
+        sc.Obstacle(shape=sc.Box(size=[6.0, 0.1, 3.0]), position=[3.0, 0.0, 1.5]),
+        sc.Obstacle(shape=sc.Box(size=[0.1, 5.0, 3.0]), position=[0.0, 2.5, 1.5]),
+        sc.Obstacle(shape=sc.Box(size=[6.0, 5.0, 0.1]), position=[3.0, 2.5, 0.0]),
+        sc.Obstacle(shape=sc.Box(size=[1.0, 0.6, 0.8]), position=[2.0, 2.0, 0.4]),
+        sc.Obstacle(shape=sc.Sphere(radius=0.4), position=[4.0, 1.0, 1.2]),
+        sc.Obstacle(
+            shape=sc.Cylinder(radius=0.2, length=2.0), position=[1.0, 4.0, 1.0]
+        ),
+    ]
+    points = downsample(surface_samples(sc.Scenario(obstacles=boxes), 60_000), 0.05)
+    xyz = np.ascontiguousarray(points.T)
+    reader = MapReader(points, 3.0)
+    rng = np.random.default_rng(7)
+    p, seen = np.array([2.0, 2.0, 1.5]), 0
+    for k in range(300):
+        if k % 50 == 0:  # a jump, once far outside the map
+            p = rng.uniform([-1, -1, 0], [7, 6, 3]) if k != 100 else np.full(3, 50.0)
+        p = p + rng.normal(0.0, 0.02, 3)
+        got, expected = reader(p), map_readings(xyz, p, 3.0)
+        np.testing.assert_array_equal(got, expected)
+        seen += int(expected[3] > 0.5) + int(expected[7] > 0.5)
+    assert seen > 300  # most readings see two or more obstacles
+
+
+@pytest.mark.parametrize("dip", [0.0, 0.05, 0.3])
+def test_the_compiled_basins_are_the_persistent_minima(dip):
+    """`map_kernels.basins` (a flood from each candidate) against
+    `perception.persistent_minima` (every component labelled) on the voxel
+    graphs of random clouds, whose voxels' distances have many shallow
+    minima: the same voxels, in the same order, for up to 12 of them."""
+    from mfi_drake.maths import map_kernels
+    from mfi_drake.maths.perception import persistent_minima, voxel_graph
+
+    rng = np.random.default_rng(11)
+    for trial in range(20):
+        points = rng.uniform(0.0, 3.0, (rng.integers(5, 3000), 3))
+        graph = voxel_graph(points)
+        nearest = rng.uniform(0.0, 1.0, graph.count)
+        nearest[rng.random(graph.count) < 0.1] = 0.5  # ties
+        ends = np.concatenate([graph.a, graph.b])
+        order = np.argsort(ends, kind="stable")
+        indptr = np.searchsorted(ends[order], np.arange(graph.count + 1))
+        others = np.concatenate([graph.b, graph.a])[order]
+        count = int(rng.integers(1, 13))
+        nodes = np.arange(graph.count)
+        got = map_kernels.basins(nearest, (nodes, indptr, others, nodes), count, dip)
+        expected = persistent_minima(nearest, graph.a, graph.b, count, dip)
+        np.testing.assert_array_equal(got, expected, err_msg=f"trial {trial}")
+
+
 def test_a_dense_map_of_the_wall_flies_as_the_wall(tmp_path):
     """The oracle: the planar wall's surfaces sampled with 200k points (a
     voxel of 0.05 m holds ~7 of them) fly with the geometric wall's outcome,
@@ -165,7 +227,8 @@ def test_a_million_points_load(tmp_path):
 
 def _nan_map(tmp_path):
     points = np.ones((10, 3))
-    points[3, 1] = np.nan
+    points[:, 1] = np.nan
+    points[3, 0] = np.inf
     write_ply(str(tmp_path / "map.ply"), points)
 
 
@@ -183,7 +246,7 @@ BAD_MAPS = [
         "",
         "holds no points",
     ),
-    ("not finite", _nan_map, "", "1 points are not finite (the first: point 3"),
+    ("not finite", _nan_map, "", "holds no finite point (all 10 are NaN or inf)"),
     (
         "cameras",
         "wall",

@@ -231,7 +231,7 @@ def remember(
     """The memory after a frame at `time`: without the `cleared` samples,
     those seen `duration` or more ago and those farther than `reach` from
     `position`; with the frame's `new_points` (world frame) added."""
-    near = _squared_distances(memory.points.T, position) <= reach * reach
+    near = squared_distances(memory.points.T, position) <= reach * reach
     keep = ~cleared & (time - memory.times < duration) & near
     return Memory(
         np.concatenate([memory.points[keep], new_points]),
@@ -312,13 +312,21 @@ def nearest_basins(
     (on the voxels, whose distance is their nearest sample's). A
     minimum that rises less than that before reaching a deeper one is an
     artefact of the sampling (sparse or old samples of the same surface)."""
-    d = np.sqrt(_squared_distances(points.T, position))
+    d = np.sqrt(squared_distances(points.T, position))
     nearest = np.full(graph.count, np.inf)
     np.minimum.at(nearest, graph.voxel_of, d)
-    a, b = graph.a, graph.b
+    return persistent_minima(nearest, graph.a, graph.b, count, dip)
+
+
+def persistent_minima(
+    nearest: np.ndarray, a: np.ndarray, b: np.ndarray, count: int, dip: float = DIP
+) -> np.ndarray:
+    """`nearest_basins` of a graph on voxels 0…len(nearest)−1 with edges
+    (a_i, b_i), each voxel's distance `nearest` (its nearest sample's)."""
+    voxels = len(nearest)
     # (d, index) of each end, compared lexicographically.
     a_first = (nearest[a] < nearest[b]) | ((nearest[a] == nearest[b]) & (a < b))
-    beaten = np.zeros(graph.count, dtype=bool)
+    beaten = np.zeros(voxels, dtype=bool)
     beaten[b[a_first]] = True
     beaten[a[~a_first & (a != b)]] = True
     minima = np.flatnonzero(~beaten)
@@ -329,14 +337,14 @@ def nearest_basins(
         if found:  # the nearest minimum always persists
             level = nearest[m] + dip
             low = (nearest[a] <= level) & (nearest[b] <= level)
-            label = components(graph.count, a[low], b[low])
+            label = components(voxels, a[low], b[low])
             if nearest[label == label[m]].min() < nearest[m]:
                 continue
         found.append(m)
     return np.array(found, dtype=int)
 
 
-def _squared_distances(xyz: np.ndarray, position: np.ndarray) -> np.ndarray:
+def squared_distances(xyz: np.ndarray, position: np.ndarray) -> np.ndarray:
     """|q − position|² of each column q of xyz (3, n), row by row (summing
     an (n, 3) array along its rows is several times slower), in xyz's
     precision: a whole image's float64 temporaries (150 kB each) are large

@@ -8,15 +8,18 @@ Lengths in metres, world frame."""
 import numpy as np
 
 from mfi_drake.maths.layout import OBSTACLE_COUNT, obstacle_signal
-from mfi_drake.maths.perception import Groups, nearest_basins, voxel_graph
+from mfi_drake.maths.perception import DIP, Groups, nearest_basins, voxel_graph
 
 # [m] the default edge of the voxels a map is thinned to (`Scenario.map_voxel`):
 # a quarter of the perception's grouping voxel (perception.VOXEL), so thinning
 # never joins or splits its groups, and well under the collision radius of
 # either vehicle, so the thinned map's clearance is within it of the cloud's.
 MAP_VOXEL = 0.05
-# Pairs a chunk of `nearest_points` compares at once (memory ~ 8 bytes each).
-_CHUNK = 1 << 22
+# `MapReader` keeps the map's points within r_s plus this fraction of r_s
+# of where it last gathered them, and gathers again when the vehicle is
+# farther than that from there: a larger margin gathers less often and
+# reads more points each time.
+MARGIN = 0.1
 
 
 def downsample(points: np.ndarray, voxel: float) -> np.ndarray:
@@ -37,7 +40,8 @@ def map_readings(xyz: np.ndarray, position: np.ndarray, radius: float) -> np.nda
     """The "obstacle" signal (`maths.layout`) at `position` of the map
     `xyz` (3, n): its points within `radius` (inclusive) grouped by the
     camera's perception, the nearest point of each of the OBSTACLE_COUNT
-    nearest groups, nearest first."""
+    nearest groups, nearest first. The reading by its definition, over
+    every point: `MapReader` reads the same, faster."""
     d = xyz - position[:, None]
     near = np.flatnonzero(np.einsum("ij,ij->j", d, d) <= radius * radius)
     points = xyz[:, near].T
@@ -54,17 +58,96 @@ def nearest_points(
     points: np.ndarray, queries: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """(distances, indices), each (q,): which of `points` (n, 3, n ≥ 1) is
-    nearest each query point (q, 3), and how far. A matrix product ranks
-    the candidates; the distance to the one chosen is then computed
-    directly, so it is exact, and the choice is off only between points
-    whose distances tie to the product's rounding (~1e-16 |q|²)."""
+    nearest each query point (q, 3), and how far: a KD-tree's exact
+    nearest neighbour (ties to either)."""
+    from scipy.spatial import cKDTree  # imported here: only a map pays
+
     queries = np.asarray(queries, dtype=float).reshape(-1, 3)
-    squared = np.einsum("ij,ij->i", points, points)
-    step = max(1, _CHUNK // len(points))
-    index = np.concatenate(
-        [
-            np.argmin(squared[None, :] - 2.0 * q @ points.T, axis=1)
-            for q in np.split(queries, range(step, len(queries), step))
-        ]
-    ).astype(int)
-    return np.linalg.norm(points[index] - queries, axis=1), index
+    distances, index = cKDTree(points).query(queries)
+    return distances, index.astype(int)
+
+
+class MapReader:
+    """`map_readings` of one map, the same readings bit for bit, at the
+    cost of the points near the vehicle only (docs/performance.md,
+    "Point-cloud maps").
+
+    Built once: the perception's voxel graph of the whole map
+    (`voxel_graph`), the map's points ordered voxel by voxel, and a
+    KD-tree of them. A reading gathers the points within r_s (1 + MARGIN)
+    of the position with the tree and keeps them, as runs of one voxel
+    each with the graph's edges between those voxels, while the vehicle
+    stays within MARGIN r_s of where it gathered them (every point within
+    r_s of it is among them). Each reading then takes each voxel's nearest
+    point within r_s and the voxels' persistent minima, in one compiled
+    pass each (`map_kernels`).
+    """
+
+    def __init__(self, points: np.ndarray, radius: float):
+        from scipy.spatial import cKDTree  # imported here: only a map pays
+
+        from mfi_drake.maths import map_kernels
+
+        self._kernels = map_kernels
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        graph = voxel_graph(points)
+        order = np.argsort(graph.voxel_of, kind="stable")  # map order within
+        self._points = points[order]
+        self._voxel_of = graph.voxel_of[order]
+        # The graph's adjacency both ways (CSR: voxel v's neighbours are
+        # neighbours[adjacent[v]:adjacent[v + 1]]).
+        ends = np.concatenate([graph.a, graph.b])
+        by_end = np.argsort(ends, kind="stable")
+        self._adjacent = np.searchsorted(ends[by_end], np.arange(graph.count + 1))
+        self._neighbours = np.concatenate([graph.b, graph.a])[by_end]
+        self._local = np.full(graph.count, -1)  # each voxel's run, if gathered
+        self._tree = cKDTree(self._points)
+        self._radius = float(radius)
+        self._centre = None  # where the kept points were gathered
+
+    def __call__(self, position: np.ndarray) -> np.ndarray:
+        """The "obstacle" signal at `position` (`map_readings`)."""
+        position = np.asarray(position, dtype=float)
+        if self._centre is None or (
+            np.linalg.norm(position - self._centre) > MARGIN * self._radius
+        ):
+            self._gather(position)
+        xyz, runs, balls, voxels = self._near
+        nearest, best = self._kernels.voxel_nearest(
+            xyz, runs, balls, position, self._radius * self._radius
+        )
+        graph = (voxels, self._adjacent, self._neighbours, self._local)
+        found = self._kernels.basins(nearest, graph, OBSTACLE_COUNT, DIP)
+        # Each basin's nearest point, nearest first, ties in voxel order (as
+        # `Groups.nearest` sorts them).
+        offsets = []
+        for voxel in found.tolist():
+            d = (xyz[:, best[voxel]] - position).tolist()
+            offsets.append((d[0] * d[0] + d[1] * d[1] + d[2] * d[2], voxel, d))
+        return obstacle_signal([d for _, _, d in sorted(offsets)])
+
+    def _gather(self, position: np.ndarray) -> None:
+        """Keeps the points within r_s (1 + MARGIN) of `position`: their xyz
+        (3, m); where each voxel's run of them starts (and the end); each
+        run's ball (centre, radius: (k, 4)); and each run's voxel, whose
+        run `_local` gives (the graph's other voxels: −1)."""
+        reach = self._radius * (1.0 + MARGIN)
+        index = self._tree.query_ball_point(position, reach, return_sorted=True)
+        index = np.asarray(index, dtype=np.int64)
+        points, voxel = self._points[index], self._voxel_of[index]
+        runs = np.flatnonzero(np.diff(voxel, prepend=-1))
+        counts = np.diff(np.append(runs, len(index)))
+        voxels = voxel[runs]  # ascending: the map's points are in voxel order
+        centres = np.add.reduceat(points, runs, axis=0) / counts[:, None]
+        spread = np.linalg.norm(points - np.repeat(centres, counts, axis=0), axis=1)
+        balls = np.column_stack([centres, np.maximum.reduceat(spread, runs)])
+        if self._centre is not None:
+            self._local[self._near[3]] = -1
+        self._local[voxels] = np.arange(len(voxels))
+        self._near = (
+            np.ascontiguousarray(points.T),
+            np.append(runs, len(index)).astype(np.int64),
+            balls,
+            voxels,
+        )
+        self._centre = position.copy()

@@ -4,14 +4,15 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, POSITION, STATE_SIZE
-from mfi_drake.maths.point_maps import map_readings
+from mfi_drake.maths.point_maps import MapReader
 
 
 class PointMapSensor(LeafSystem):
     """The sphere sensor of a point-cloud map: the map's points within r_s,
     grouped into obstacles as the depth camera's perception groups its
     samples, the closest point of each of the OBSTACLE_COUNT nearest
-    (`maths.point_maps.map_readings`).
+    (`maths.point_maps.map_readings`, read by a `MapReader`: the points
+    near the vehicle only).
 
     .. pydrake_system::
 
@@ -28,8 +29,7 @@ class PointMapSensor(LeafSystem):
 
     def __init__(self, points, radius: float):
         super().__init__()
-        self._xyz = np.array(points, dtype=float).reshape(-1, 3).T.copy()
-        self._radius = float(radius)
+        self._read = MapReader(np.array(points, dtype=float).reshape(-1, 3), radius)
         self._last = (None, None)  # (position bytes, reading): see _calc
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self.DeclareVectorOutputPort(
@@ -45,5 +45,5 @@ class PointMapSensor(LeafSystem):
         # first evaluation repeats the logger's.
         key = p.tobytes()
         if key != self._last[0]:
-            self._last = (key, map_readings(self._xyz, p, self._radius))
+            self._last = (key, self._read(p))
         output.SetFromVector(self._last[1])

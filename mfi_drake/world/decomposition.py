@@ -1,23 +1,33 @@
-"""Meshes of any shape: a non-convex mesh (`!Mesh`, or a mesh geometry of a
-`world:` file) flies as the convex pieces CoACD decomposes it into, each an
-inline `!Convex` at the mesh's pose (docs/usage.md, "Meshes of any shape",
-has the comparison with V-HACD that chose CoACD).
+"""Meshes of any shape: a mesh (`!Mesh`, or a mesh geometry of a `world:`
+file) in any format `world.mesh_files` reads flies as convex pieces, each an
+inline `!Convex` at the mesh's pose: a closed mesh as the pieces CoACD
+decomposes it into (docs/usage.md, "Meshes of any shape", has the
+comparison with V-HACD that chose CoACD), an open, flat or non-manifold one
+as thin slabs over its surface (`world.surfaces`).
 
 Decomposing costs seconds; the pieces are cached on disk under the user's
 cache directory, keyed by the mesh's vertices and triangles and by the
-decomposition's parameters, so a second flight does not pay again.
+decomposition's parameters, so a second flight does not pay again. A
+scenario's meshes are decomposed in parallel first, a process a core
+(`prefetch_pieces`), each filling the cache that `mesh_obstacles` then
+reads.
 """
 
+import concurrent.futures
+import contextlib
 import dataclasses
 import hashlib
 import json
+import multiprocessing
 import os
 
 import numpy as np
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.files import atomic_path
-from mfi_drake.world.meshes import enclosed_volume, read_obj
+from mfi_drake.world.mesh_files import read_mesh
+from mfi_drake.world.meshes import enclosed_volume
+from mfi_drake.world.surfaces import THICKNESS, closed, surface_slabs
 
 # CoACD's parameters: its defaults (concavity threshold 0.05) with a fixed
 # seed, so that a mesh decomposes the same on every machine.
@@ -49,12 +59,10 @@ def convex_pieces(vertices: np.ndarray, triangles: np.ndarray) -> list[np.ndarra
         raise ValueError("has no faces to decompose")
     if abs(enclosed_volume(vertices, triangles)) <= 1e-9 * np.ptp(vertices) ** 3:
         raise ValueError("cannot be decomposed: it encloses no volume (flat or open)")
-    key = hashlib.sha256(vertices.tobytes() + triangles.tobytes())
-    key.update(json.dumps([CACHE_VERSION, "coacd", COACD]).encode())
-    path = os.path.join(cache_dir(), f"{key.hexdigest()}.npz")
-    if os.path.isfile(path):
-        with np.load(path) as cached:
-            return [cached[f"piece_{k}"] for k in range(len(cached.files))]
+    return _cached(vertices, triangles, ["coacd", COACD], _coacd)
+
+
+def _coacd(vertices: np.ndarray, triangles: np.ndarray) -> list[np.ndarray]:
     import coacd  # imported here: only a scenario with a mesh pays for it
 
     coacd.set_log_level("error")
@@ -65,31 +73,79 @@ def convex_pieces(vertices: np.ndarray, triangles: np.ndarray) -> list[np.ndarra
     pieces = [np.asarray(v, float) for v, _ in parts if _solid(np.asarray(v))]
     if not pieces:
         raise ValueError("cannot be decomposed: no piece spans a volume")
+    return pieces
+
+
+def _cached(vertices, triangles, method: list, compute) -> list[np.ndarray]:
+    """compute(vertices, triangles), read from the cache if a run with the
+    same mesh and `method` (its name and parameters) wrote it there."""
+    key = hashlib.sha256(vertices.tobytes() + triangles.tobytes())
+    key.update(json.dumps([CACHE_VERSION, *method]).encode())
+    path = os.path.join(cache_dir(), f"{key.hexdigest()}.npz")
+    if os.path.isfile(path):
+        with np.load(path) as cached:
+            return [cached[f"piece_{k}"] for k in range(len(cached.files))]
+    pieces = compute(vertices, triangles)
     with atomic_path(path) as tmp:
         np.savez(tmp, **{f"piece_{k}": p for k, p in enumerate(pieces)})
     return pieces
 
 
+def mesh_pieces(vertices: np.ndarray, triangles: np.ndarray, scale) -> list:
+    """The vertices (K, 3) of each convex piece of the mesh scaled by `scale`
+    (a number or one per axis): CoACD's pieces of a closed mesh that
+    encloses a volume, else slabs over its surface (`surfaces`). Raises
+    ValueError, one line."""
+    vertices = np.ascontiguousarray(vertices, dtype=float)
+    triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+    scale = np.broadcast_to(np.asarray(scale, float), 3)
+    if not len(triangles):
+        raise ValueError("has no faces to decompose")
+    volume = abs(enclosed_volume(vertices, triangles))
+    if closed(triangles) and volume > 1e-9 * np.ptp(vertices) ** 3:
+        return [piece * scale for piece in convex_pieces(vertices, triangles)]
+    scaled = np.ascontiguousarray(vertices * scale)
+    return _cached(scaled, triangles, ["slabs", THICKNESS], surface_slabs)
+
+
 def mesh_obstacles(
     obstacle: sc.Obstacle, path: str, scale, name: str
 ) -> list[sc.Obstacle]:
-    """An obstacle whose shape is the OBJ mesh `path` (scaled by `scale`, a
-    number or one per axis) as its convex pieces, each at its pose and with
-    its motion, named "`name` piece k". Raises ValueError, one line."""
-    if not os.path.isfile(path):
-        raise ValueError(f"no such file ({path})")
-    if not path.lower().endswith(".obj"):
-        raise ValueError("a mesh to decompose must be a Wavefront OBJ file")
-    pieces = convex_pieces(*read_obj(path))
-    scale = np.broadcast_to(np.asarray(scale, float), 3)
+    """An obstacle whose shape is the mesh file `path` (any format of
+    `mesh_files.MESH_SUFFIXES`, scaled by `scale`, a number or one per axis:
+    SDFormat's <scale>) as its convex pieces (`mesh_pieces`), each at its
+    pose and with its motion, named "`name` piece k". Raises ValueError,
+    one line."""
+    pieces = mesh_pieces(*read_mesh(path), scale)
     return [
         dataclasses.replace(
             obstacle,
-            shape=sc.Convex(vertices=(piece * scale).tolist()),
+            shape=sc.Convex(vertices=piece.tolist()),
             name=f"{name} piece {k}",
         )
         for k, piece in enumerate(pieces)
     ]
+
+
+def _warm(path: str, scale) -> None:
+    """Fills the cache with the pieces of the mesh file `path`; a mesh that
+    cannot be read or decomposed is left for `mesh_obstacles` to refuse."""
+    with contextlib.suppress(ValueError):
+        mesh_pieces(*read_mesh(path), scale)
+
+
+def prefetch_pieces(meshes: list[tuple[str, object]]) -> None:
+    """Decomposes the mesh files of `meshes` ((path, scale) pairs) at once,
+    a process a core, into the cache; one mesh or one core: nothing to
+    share, `mesh_obstacles` decomposes it."""
+    unique = list(dict.fromkeys((p, tuple(np.ravel(s).tolist())) for p, s in meshes))
+    workers = min(len(unique), os.cpu_count() or 1)
+    if workers < 2:
+        return
+    # Spawned, not forked: the parent may hold threads (numba, Drake).
+    spawn = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(workers, mp_context=spawn) as pool:
+        list(pool.map(_warm, *zip(*unique, strict=True)))
 
 
 def with_meshes(scenario: sc.Scenario, where: str) -> sc.Scenario:
@@ -98,6 +154,13 @@ def with_meshes(scenario: sc.Scenario, where: str) -> sc.Scenario:
     obstacle and the file."""
     if not any(isinstance(o.shape, sc.Mesh) for o in scenario.obstacles):
         return scenario
+    prefetch_pieces(
+        [
+            (os.path.join(scenario.base_dir, o.shape.file), o.shape.scale)
+            for o in scenario.obstacles
+            if isinstance(o.shape, sc.Mesh)
+        ]
+    )
     obstacles = []
     for i, obstacle in enumerate(scenario.obstacles):
         shape = obstacle.shape

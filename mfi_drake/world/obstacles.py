@@ -7,13 +7,14 @@ closest points a sphere sensor reads, and exact distances for validation and
 metrics (at the logged times, where obstacles move).
 """
 
+import dataclasses
 import logging
 
 import numpy as np
+from pydrake.geometry import Box as DrakeBox
 from pydrake.geometry import (
     GeometryFrame,
     GeometryInstance,
-    HalfSpace,
     IllustrationProperties,
     PerceptionProperties,
     ProximityProperties,
@@ -28,10 +29,21 @@ from mfi_drake.config.dynamic import moves
 from mfi_drake.maths.layout import nearest_first, obstacle_signal
 from mfi_drake.maths.point_maps import nearest_points
 from mfi_drake.world.motion import ObstacleFrames, obstacle_pose
-from mfi_drake.world.shapes import drake_shape, shape_mesh
+from mfi_drake.world.shapes import bounding_radius, drake_shape, shape_mesh
 
 OBSTACLE_RGBA = Rgba(0.55, 0.55, 0.6, 0.6)
 GROUND_RGBA = Rgba(0.45, 0.6, 0.4, 1.0)
+# [m] The ground is a box this wide and deep whose top face is the ground
+# plane, not Drake's HalfSpace: FCL gives a half space an AABB reaching to
+# ±DBL_MAX, on which its broadphase tree (built over the anchored geometry)
+# does arithmetic that overflows; with ~100 or more other geometries the
+# tree comes out corrupt and SceneGraph's copy of it (every new context)
+# crashes with a segmentation fault (Drake issue #19263, FCL's
+# DynamicAABBTreeCollisionManager; docs/performance.md, "Big scenes"). Above
+# the box, within its width, its distance is the half space's, exactly:
+# the top face's. The depth keeps the rounding of that distance at ~1e-14 m.
+GROUND_WIDTH = 2.0e4
+GROUND_DEPTH = 100.0
 
 
 def obstacle_triangles(
@@ -68,8 +80,8 @@ def register_obstacles(
     clearance), perception (depth camera) and illustration roles: a static
     one as anchored geometry, a moving one on a frame of its own, whose
     poses the returned `ObstacleFrames` gives. The ground is an anchored
-    half space, sensed and measured but not illustrated (Meshcat draws no
-    half space; `app.animation` draws it)."""
+    box under the ground plane (GROUND_WIDTH: not a HalfSpace), sensed and
+    measured but not illustrated (`app.animation` draws it)."""
     source = scene_graph.RegisterSource("obstacles")
     moving = []
     for i, obstacle in enumerate(scenario.obstacles):
@@ -90,10 +102,9 @@ def register_obstacles(
         else:
             scene_graph.RegisterGeometry(source, frame, instance)
     if scenario.ground is not None:
-        quiet_half_spaces()
         ground = GeometryInstance(
-            HalfSpace.MakePose([0.0, 0.0, 1.0], [0.0, 0.0, scenario.ground.height]),
-            HalfSpace(),
+            RigidTransform([0.0, 0.0, scenario.ground.height - GROUND_DEPTH / 2]),
+            DrakeBox(GROUND_WIDTH, GROUND_WIDTH, GROUND_DEPTH),
             "ground",
         )
         sensed(ground, GROUND_RGBA, RenderLabel(len(scenario.obstacles) + 1))
@@ -146,10 +157,7 @@ def obstacle_distances(
     `within` (SceneGraph's broadphase then skips the far obstacles, which is
     what makes a threshold cheap). A point-cloud map's points count as
     surfaces (`Scenario.map_points`)."""
-    found = [
-        np.inf if r is None else r.distance
-        for _, r in _nearest(scenario, points, within, times)
-    ]
+    found = [d for d, _ in _nearest(scenario, points, within, times)]
     if scenario.map_points:
         to_map, _ = nearest_points(np.asarray(scenario.map_points), points)
         to_map[to_map > within] = np.inf
@@ -161,16 +169,11 @@ def closest_obstacles(
     scenario: sc.Scenario, points
 ) -> list[tuple[float, sc.Obstacle | None]]:
     """As `obstacle_distances` at t = 0, with the obstacle each distance is
-    to (None: the ground), for errors that name it."""
-    out = []
-    for inspector, r in _nearest(scenario, points, np.inf, None):
-        if r is None:  # no obstacle, no ground
-            out.append((np.inf, None))
-            continue
-        name = inspector.GetName(r.id_G)  # "obstacle_<i>" or "ground"
-        index = name.removeprefix("obstacle_")
-        obstacle = scenario.obstacles[int(index)] if index != name else None
-        out.append((r.distance, obstacle))
+    to (None: the ground, or nothing)."""
+    out = [
+        (d, None if i is None else scenario.obstacles[i])
+        for d, i in _nearest(scenario, points, np.inf, None)
+    ]
     if scenario.map_points:  # the nearer of the map and the obstacles
         map_points = np.asarray(scenario.map_points)
         to_map, index = nearest_points(map_points, points)
@@ -182,18 +185,73 @@ def closest_obstacles(
     return out
 
 
+# [m] added to the bounds `_candidates` compares: distances from Drake and
+# from the bounding balls round differently.
+_BOUND_SLACK = 1e-6
+_CHUNK = 1 << 22  # point–obstacle pairs `_candidates` compares at once
+
+
+def _candidates(scenario: sc.Scenario, points: np.ndarray, within: float):
+    """(the obstacles that can be nearest one of `points` at t = 0, each
+    point's bound on its nearest distance): an obstacle is within the ball
+    of its bounding radius about its origin, so the nearest is no farther
+    than the least |p − c| + ρ (or the ground's z − h), and one whose
+    |p − c| − ρ exceeds that for every point is never nearest. Asking
+    SceneGraph about the candidates alone, each point within its bound,
+    gives the same answers at a cost that grows with the obstacles near
+    the points, not with the scene (SceneGraph's registration of n
+    geometries costs ~n² on Drake 1.51: docs/performance.md, "Big
+    scenes")."""
+    obstacles = scenario.obstacles
+    bound = np.full(len(points), float(within))
+    if scenario.ground is not None:
+        bound = np.minimum(bound, points[:, 2] - scenario.ground.height)
+    if not obstacles:
+        return [], bound
+    centres = np.array([obstacle_pose(o).translation() for o in obstacles])
+    radii = np.array([bounding_radius(scenario, o.shape) for o in obstacles])
+    near = np.zeros(len(obstacles), dtype=bool)
+    step = max(1, _CHUNK // len(obstacles))
+    for lo in range(0, len(points), step):
+        gap = np.linalg.norm(points[lo : lo + step, None] - centres[None], axis=2)
+        chunk = np.minimum(bound[lo : lo + step], (gap + radii).min(axis=1))
+        bound[lo : lo + step] = chunk
+        near |= (gap - radii <= chunk[:, None] + _BOUND_SLACK).any(axis=0)
+    return np.flatnonzero(near).tolist(), bound
+
+
 def _nearest(scenario: sc.Scenario, points, within: float, times):
-    """(SceneGraph's inspector, the nearest SignedDistanceToPoint or None)
-    for each point, with the obstacles where they are at its time."""
+    """(the signed distance to the nearest obstacle or the ground, the
+    obstacle's index in `scenario.obstacles` or None for the ground) for
+    each point, with the obstacles where they are at its time; (inf,
+    None) where nothing is within `within`. At t = 0 (or with nothing
+    moving) only the `_candidates` are registered."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    moving = times is not None and any(moves(o.motion) for o in scenario.obstacles)
+    kept = list(range(len(scenario.obstacles)))
+    limits = np.full(len(points), float(within))
+    if not moving:
+        kept, bounds = _candidates(scenario, points, within)
+        limits = np.minimum(bounds + _BOUND_SLACK, within)
+        scenario = dataclasses.replace(
+            scenario, obstacles=[scenario.obstacles[i] for i in kept]
+        )
     scene_graph = SceneGraph()
     frames = register_obstacles(scene_graph, scenario)
     context = scene_graph.CreateDefaultContext()
     port = scene_graph.get_query_output_port()
     frames.fix(scene_graph, context, 0.0)
     query = port.Eval(context)
+    inspector = query.inspector()
     for k, p in enumerate(points):
         if frames.frames and times is not None:
             frames.fix(scene_graph, context, times[k])
             query = port.Eval(context)
-        results = query.ComputeSignedDistanceToPoint(np.asarray(p, float), within)
-        yield query.inspector(), min(results, key=lambda r: r.distance, default=None)
+        results = query.ComputeSignedDistanceToPoint(p, limits[k])
+        r = min(results, key=lambda r: r.distance, default=None)
+        if r is None or r.distance > within:
+            yield np.inf, None
+            continue
+        name = inspector.GetName(r.id_G)  # "obstacle_<i>" or "ground"
+        index = name.removeprefix("obstacle_")
+        yield r.distance, kept[int(index)] if index != name else None

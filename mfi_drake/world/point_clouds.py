@@ -3,22 +3,30 @@ read with a maintained reader (plyfile, pypcd4), checked, and thinned to
 `Scenario.map_voxel` (`maths.point_maps.downsample`). Loading puts the
 thinned points inline in `Scenario.map_points` and empties `world`, so the
 scenario that travels (as YAML, to a sweep's workers) carries the points,
-not the path."""
+not the path.
+
+A cloud as sensors record it is often organized (one point a pixel, an
+image's rows and columns) with NaN (or inf) where a pixel had no return:
+those points are no surface, and are dropped with one warning line that
+counts them."""
 
 import dataclasses
 import os
+import warnings
 
 import numpy as np
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.config.worlds import ScenarioWarning
 from mfi_drake.maths.point_maps import downsample
 from mfi_drake.world.obstacles import obstacle_triangles
 
 
-def read_cloud(path: str) -> np.ndarray:
-    """(n, 3) float64: the x, y, z of every point of the PLY or PCD file
-    `path`. Raises ValueError, one line, for a file that is missing,
-    unreadable, without x, y, z, empty, or with a point not finite."""
+def read_cloud(path: str) -> tuple[np.ndarray, int]:
+    """((n, 3) float64: the x, y, z of every finite point of the PLY or PCD
+    file `path`, how many points were not finite and are left out). Raises
+    ValueError, one line, for a file that is missing, unreadable, without
+    x, y, z, or without a finite point."""
     if not os.path.isfile(path):
         raise ValueError(f"no such file ({path})")
     try:
@@ -37,13 +45,10 @@ def read_cloud(path: str) -> np.ndarray:
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     if len(points) == 0:
         raise ValueError("holds no points")
-    bad = ~np.isfinite(points).all(axis=1)
-    if bad.any():
-        raise ValueError(
-            f"{int(bad.sum())} points are not finite (the first: point "
-            f"{int(np.argmax(bad))}, {points[np.argmax(bad)].tolist()})"
-        )
-    return points
+    finite = np.isfinite(points).all(axis=1)
+    if not finite.any():
+        raise ValueError(f"holds no finite point (all {len(points)} are NaN or inf)")
+    return points[finite], int(len(points) - finite.sum())
 
 
 def with_map(scenario: sc.Scenario, where: str) -> sc.Scenario:
@@ -52,9 +57,17 @@ def with_map(scenario: sc.Scenario, where: str) -> sc.Scenario:
     file."""
     path = os.path.join(scenario.base_dir, scenario.world)
     try:
-        points = read_cloud(path)
+        points, dropped = read_cloud(path)
     except ValueError as e:
         sc.fail(where, "world", scenario.world, str(e))
+    if dropped:
+        warnings.warn(
+            f"{where}: world = {scenario.world!r}: {dropped} of "
+            f"{dropped + len(points)} points are not finite (no return) and "
+            "are left out",
+            ScenarioWarning,
+            stacklevel=2,
+        )
     thinned = downsample(points, scenario.map_voxel)
     return dataclasses.replace(scenario, map_points=thinned.tolist(), world="")
 
