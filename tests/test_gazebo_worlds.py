@@ -330,7 +330,6 @@ def test_world_pose_places_a_cloud(tmp_path):
     np.testing.assert_allclose(posed.map_points, moved, atol=1e-12)
 
 
-@pytest.mark.xfail(strict=True, reason="DAE reading lands with issue 49b's meshes")
 def test_a_dae_collision_mesh_in_centimetres_is_the_crate(tmp_path):
     """The crate as a COLLADA cube of 200 cm, scaled 0.5: a 1 m cube."""
     (tmp_path / "w.world").write_text(
