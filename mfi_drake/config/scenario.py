@@ -36,7 +36,8 @@ from mfi_drake.config.parameters import (
     paper_form,
     validate_params,
 )
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicle_model import VehicleModel
+from mfi_drake.config.vehicles import Vehicle, VehicleError, as_vehicle
 from mfi_drake.maths.escape import EscapeParams
 from mfi_drake.maths.point_maps import MAP_VOXEL
 
@@ -213,7 +214,8 @@ class Scenario:
     start: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.5])  # m
     goal: list[float] = field(default_factory=list)  # m; required: no default
     duration: float = 30.0  # s of simulated time
-    vehicle: str = "drake_default"
+    # A preset's name, a !Vehicle or a !VehicleModel (docs/vehicles.md).
+    vehicle: str | Vehicle | VehicleModel = "drake_default"
     sensor: Sensor = field(default_factory=SphereSensor)
     obstacles: list[Obstacle] = field(default_factory=list)
     # An SDFormat (.sdf) or URDF (.urdf) file, relative to the YAML file, whose
@@ -432,8 +434,11 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     _check_goal(where, "goal", scenario.goal)
     _check_positive(where, "duration", scenario.duration)
     _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
-    if scenario.vehicle not in VEHICLES:
-        fail(where, "vehicle", scenario.vehicle, f"must be one of {sorted(VEHICLES)}")
+    if not isinstance(scenario.vehicle, VehicleModel):  # read at loading
+        try:
+            as_vehicle(scenario.vehicle)
+        except VehicleError as e:
+            raise ScenarioError(f"{where}: {e}") from None
     if isinstance(scenario.sensor, SphereSensor):
         _check_positive(where, "sensor.radius", scenario.sensor.radius)
     elif isinstance(scenario.sensor, Cameras):

@@ -25,6 +25,8 @@ from mfi_drake.config.scenario import (
     check_scenario,
     fail,
 )
+from mfi_drake.config.vehicle_model import VehicleModel, read_vehicle_model
+from mfi_drake.config.vehicles import Vehicle, VehicleError
 
 
 class _TaggedLoader(yaml.SafeLoader):
@@ -99,6 +101,8 @@ def _check_value(value, hint, where: str, name: str) -> None:
         if value is None and type(None) in alternatives:  # an optional block
             return
         options = {t.__name__: t for t in alternatives if t is not type(None)}
+        if str in alternatives and isinstance(value, str):  # a vehicle's name
+            return
         # Untagged is the first alternative, as Drake writes and reads it.
         first = next(iter(options))
         tag = value.get("_tag", first) if isinstance(value, dict) else None
@@ -192,8 +196,20 @@ def parse_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> Scenario
     scenario = layer(scenario, _read_file(path), path)
     for where, text in overrides:
         scenario = layer(scenario, text, where)
+    try:  # a model file is flown as the record it reads
+        scenario.vehicle = _vehicle_record(scenario.vehicle, scenario.base_dir)
+    except VehicleError as e:
+        raise ScenarioError(f"{layered_name(path, overrides)}: {e}") from None
     check_scenario(scenario, layered_name(path, overrides))
     return scenario
+
+
+def _vehicle_record(vehicle, base_dir: str):
+    """A !VehicleModel read into its Vehicle, a !Vehicle with its inertia a
+    tuple (as `Vehicle` holds it), a preset's name as it is."""
+    if isinstance(vehicle, VehicleModel):
+        return read_vehicle_model(vehicle, base_dir)
+    return dataclasses.replace(vehicle) if isinstance(vehicle, Vehicle) else vehicle
 
 
 @functools.cache
@@ -218,4 +234,6 @@ def scenario_from_yaml(text: str, base_dir: str = "") -> Scenario:
     """The inverse of `scenario_to_yaml` (trusted text: not validated), its
     relative mesh files resolved against `base_dir`."""
     defaults = Scenario(base_dir=base_dir)
-    return yaml_load_typed(schema=Scenario, data=text, defaults=defaults)
+    scenario = yaml_load_typed(schema=Scenario, data=text, defaults=defaults)
+    scenario.vehicle = _vehicle_record(scenario.vehicle, base_dir)
+    return scenario

@@ -225,7 +225,7 @@ def read_vehicle_model(model: VehicleModel, base_dir: str = "") -> Vehicle:
 
 
 def _layout(xy: np.ndarray, where: str) -> str:
-    """"+" where every rotor lies on a body axis, "x" where on a diagonal."""
+    """ "+" where every rotor lies on a body axis, "x" where on a diagonal."""
     angles = np.degrees(np.arctan2(xy[:, 1], xy[:, 0])) % 90.0
     if np.all(np.minimum(angles, 90.0 - angles) < 5.0):
         return "+"

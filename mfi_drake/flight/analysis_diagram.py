@@ -16,7 +16,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.chain import connect_controller
 from mfi_drake.flight.diagram import make_plant
 from mfi_drake.maths import fields
@@ -41,7 +41,7 @@ def build_analysis_diagram(
 ) -> AnalysisDiagram:
     """The MFI closed loop of `scenario` with eq 21's `mode` fixed and no
     obstacle seen; `attitude_K` = (K_Pθ, K_Dθ) overrides eq 25's gains."""
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     params = scenario.navigator
     goal = np.asarray(scenario.goal, float)
     K_P, K_D = attitude_K if attitude_K is not None else (None, None)

@@ -41,7 +41,7 @@ from pydrake.systems.primitives import (
 from mfi_drake.config.dynamic import RelativeVelocity
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths import baselines, compiled, fields, fleet
@@ -179,7 +179,7 @@ def on_compiled(scenario: Scenario, methods: list) -> Scenario | None:
 def method_systems(scenario: Scenario, method: Method) -> tuple:
     """(navigator, goal attraction): `method`'s systems for `scenario`,
     whose parameters the compiled chain copies."""
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     return method.navigator(scenario, vehicle), method.goal_attraction(
         scenario, vehicle
     )
@@ -256,7 +256,7 @@ class OneIntegratorFleet:
         check_engine(scenario, [method])
         method = resolve_method(method)
         self.scenario, self.method = scenario, method.name
-        self.vehicle = VEHICLES[scenario.vehicle]
+        self.vehicle = as_vehicle(scenario.vehicle)
         self.flown = vehicle_scenarios(scenario)
         n = len(self.flown)
         builder = DiagramBuilder()

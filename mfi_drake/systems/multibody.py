@@ -35,7 +35,7 @@ from pydrake.multibody.tree import BodyIndex, RigidBody
 from pydrake.systems.framework import Context, DiagramBuilder, LeafSystem
 
 from mfi_drake.config.vehicle_model import ROTOR_SPIN, rotor_positions
-from mfi_drake.config.vehicles import VEHICLES, Vehicle, vehicle_model_path
+from mfi_drake.config.vehicles import Vehicle, as_vehicle, vehicle_model_path
 from mfi_drake.maths.layout import STATE_SIZE
 
 
@@ -141,9 +141,7 @@ def add_propellers(
     `get_command_input_port()` takes QuadrotorPlant's input, the four rotor
     commands u. The plant's applied-spatial-force input takes one source,
     so this serves one vehicle per plant."""
-    if isinstance(vehicle, str):
-        vehicle_model_path(vehicle)  # a clear error for an unknown name
-        vehicle = VEHICLES[vehicle]
+    vehicle = as_vehicle(vehicle)  # a clear error for an unknown name
     forces = plant.get_applied_spatial_force_input_port()
     if builder.IsConnectedOrExported(forces):
         raise ValueError(
@@ -158,7 +156,7 @@ def add_propellers(
             spin * vehicle.kM,
         )
         for position, spin in zip(
-            rotor_positions(vehicle.arm_length), ROTOR_SPIN, strict=True
+            rotor_positions(vehicle.arm_length, vehicle.layout), ROTOR_SPIN, strict=True
         )
     ]
     propeller = builder.AddNamedSystem(

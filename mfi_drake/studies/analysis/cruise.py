@@ -11,7 +11,7 @@ from pydrake.systems.primitives import LinearSystem, LogVectorOutput, Trajectory
 from pydrake.trajectories import PiecewisePolynomial
 
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.analysis_diagram import build_analysis_diagram, hover_state
 from mfi_drake.flight.result import Flight
 from mfi_drake.maths import fields
@@ -128,7 +128,7 @@ def cruise_report(flight: Flight, attitude_K=None) -> dict:
     applied (`realised_force`); (applied − F_n)·v is the model-free lag power.
     """
     scenario, params = flight.scenario, flight.scenario.navigator
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     t, x = flight.times, flight.log["state"]
     v = x[:, 6:9]
     goal = np.asarray(scenario.goal, float)

@@ -10,7 +10,7 @@ from pydrake.systems.framework import Diagram
 from pydrake.systems.primitives import Linearize
 
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.analysis_diagram import (
     AnalysisDiagram,
     build_analysis_diagram,
@@ -121,7 +121,7 @@ def with_gains(scenario: Scenario, factors: dict[str, float]) -> tuple:
     """(scenario, attitude_K) with each gain of SWEPT_GAINS scaled by its
     factor in `factors` (default 1)."""
     params = scenario.navigator
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     K_Ptheta, K_Dtheta = attitude_gains(vehicle, params)
     scaled = dataclasses.replace(
         params,
@@ -175,7 +175,9 @@ def stability_boundaries(
 
 def default_gain_values(scenario: Scenario) -> dict[str, float]:
     """The defaults of SWEPT_GAINS (attitude gains of the roll axis)."""
-    K_Ptheta, K_Dtheta = attitude_gains(VEHICLES[scenario.vehicle], scenario.navigator)
+    K_Ptheta, K_Dtheta = attitude_gains(
+        as_vehicle(scenario.vehicle), scenario.navigator
+    )
     return {
         "K_P": scenario.navigator.K_P,
         "K_D": scenario.navigator.K_D,

@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from mfi_drake.config.scenario import Scenario, ScenarioError
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.flight.analysis_diagram import (
     build_analysis_diagram,
     hover_state,
@@ -44,7 +44,7 @@ def run_analysis(
             "the diagram of systems (engine: systems)"
         )
     begin = time.perf_counter()
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     report = {"scenario": scenario.name, "vehicle": vehicle.name}
 
     plant = plant_report(vehicle)

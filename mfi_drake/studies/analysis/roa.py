@@ -16,7 +16,7 @@ from pydrake.systems.framework import EventStatus
 from pydrake.systems.primitives import SymbolicVectorSystem
 
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.flight.analysis_diagram import (
     AnalysisDiagram,
     build_analysis_diagram,
@@ -31,7 +31,7 @@ from mfi_drake.maths.reduced_models import reduced_terminal_dynamics, rk4_step
 def reduced_model_constants(scenario: Scenario) -> dict:
     """The constants of `reduced_terminal_dynamics` for `scenario`: a, b of
     eq 25 on the pitch axis (it drives x)."""
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     params = scenario.navigator
     K_Ptheta, K_Dtheta = attitude_gains(vehicle, params)
     J = np.asarray(vehicle.inertia)
