@@ -16,6 +16,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.vehicle_gains import for_vehicle
 from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.chain import connect_controller
 from mfi_drake.flight.diagram import make_plant
@@ -42,7 +43,7 @@ def build_analysis_diagram(
     """The MFI closed loop of `scenario` with eq 21's `mode` fixed and no
     obstacle seen; `attitude_K` = (K_Pθ, K_Dθ) overrides eq 25's gains."""
     vehicle = as_vehicle(scenario.vehicle)
-    params = scenario.navigator
+    params = for_vehicle(scenario.navigator, vehicle)  # AttitudePD's own too
     goal = np.asarray(scenario.goal, float)
     K_P, K_D = attitude_K if attitude_K is not None else (None, None)
     builder = DiagramBuilder()
@@ -55,7 +56,7 @@ def build_analysis_diagram(
         for name, system in (
             ("navigator", MfiNavigator(params, goal, vehicle.collision_radius)),
             ("selector", GoalAttractionSelector(params, goal, mode)),
-            ("attitude_pd", AttitudePD(vehicle, params, K_P, K_D)),
+            ("attitude_pd", AttitudePD(vehicle, scenario.navigator, K_P, K_D)),
             ("mixer", RotorMixer(vehicle)),
         )
     ]

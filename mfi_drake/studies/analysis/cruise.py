@@ -11,6 +11,7 @@ from pydrake.systems.primitives import LinearSystem, LogVectorOutput, Trajectory
 from pydrake.trajectories import PiecewisePolynomial
 
 from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.vehicle_gains import for_vehicle
 from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.analysis_diagram import build_analysis_diagram, hover_state
 from mfi_drake.flight.result import Flight
@@ -139,7 +140,9 @@ def cruise_report(flight: Flight, attitude_K=None) -> dict:
         float(np.abs(recomputed[k] - terms[k]).max()) for k in ZERO_WORK_TERMS
     )
 
-    K_Ptheta, K_Dtheta = attitude_K or attitude_gains(vehicle, params)
+    K_Ptheta, K_Dtheta = attitude_K or attitude_gains(
+        vehicle, for_vehicle(params, vehicle)
+    )
     J = np.asarray(vehicle.inertia)
     # x is realised by pitch (axis 1), y by roll (axis 0).
     a = np.array([K_Ptheta[1] / J[1], K_Ptheta[0] / J[0]])

@@ -10,6 +10,7 @@ from pydrake.systems.framework import Diagram
 from pydrake.systems.primitives import Linearize
 
 from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.vehicle_gains import for_vehicle
 from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.analysis_diagram import (
     AnalysisDiagram,
@@ -122,7 +123,7 @@ def with_gains(scenario: Scenario, factors: dict[str, float]) -> tuple:
     factor in `factors` (default 1)."""
     params = scenario.navigator
     vehicle = as_vehicle(scenario.vehicle)
-    K_Ptheta, K_Dtheta = attitude_gains(vehicle, params)
+    K_Ptheta, K_Dtheta = attitude_gains(vehicle, for_vehicle(params, vehicle))
     scaled = dataclasses.replace(
         params,
         K_P=params.K_P * factors.get("K_P", 1.0),
@@ -175,8 +176,9 @@ def stability_boundaries(
 
 def default_gain_values(scenario: Scenario) -> dict[str, float]:
     """The defaults of SWEPT_GAINS (attitude gains of the roll axis)."""
+    vehicle = as_vehicle(scenario.vehicle)
     K_Ptheta, K_Dtheta = attitude_gains(
-        as_vehicle(scenario.vehicle), scenario.navigator
+        vehicle, for_vehicle(scenario.navigator, vehicle)
     )
     return {
         "K_P": scenario.navigator.K_P,

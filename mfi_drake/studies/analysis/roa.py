@@ -16,6 +16,7 @@ from pydrake.systems.framework import EventStatus
 from pydrake.systems.primitives import SymbolicVectorSystem
 
 from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.vehicle_gains import for_vehicle
 from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.flight.analysis_diagram import (
     AnalysisDiagram,
@@ -32,7 +33,7 @@ def reduced_model_constants(scenario: Scenario) -> dict:
     """The constants of `reduced_terminal_dynamics` for `scenario`: a, b of
     eq 25 on the pitch axis (it drives x)."""
     vehicle = as_vehicle(scenario.vehicle)
-    params = scenario.navigator
+    params = for_vehicle(scenario.navigator, vehicle)
     K_Ptheta, K_Dtheta = attitude_gains(vehicle, params)
     J = np.asarray(vehicle.inertia)
     return {
