@@ -18,6 +18,7 @@ from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicle_gains import for_vehicle
 from mfi_drake.config.vehicles import Vehicle, as_vehicle
+from mfi_drake.flight.builder import add_rotor_path
 from mfi_drake.flight.chain import connect_controller
 from mfi_drake.flight.diagram import make_plant
 from mfi_drake.maths import fields
@@ -65,7 +66,7 @@ def build_analysis_diagram(
         plant.get_output_port(0),
         nothing_seen.get_output_port(0),
         *controller,
-        plant.get_input_port(0),
+        add_rotor_path(builder, vehicle, plant.get_input_port(0), True),
     )
     diagram = builder.Build()
     diagram.set_name(f"mfi_drake analysis[{scenario.name}, mode {mode}]")

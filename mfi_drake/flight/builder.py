@@ -59,7 +59,7 @@ from mfi_drake.flight.scene import goal_obstacle, scene_moves
 from mfi_drake.maths.layout import POSITION, STATE_SIZE
 from mfi_drake.maths.quadcopter import plus_commands
 from mfi_drake.systems.multibody import add_propellers, add_vehicle_state, place_vehicle
-from mfi_drake.systems.rotors import MotorLag
+from mfi_drake.systems.rotors import motor_lag
 
 WITNESS_SCALE = 0.01  # Drake's witness isolation window over the context's accuracy
 
@@ -442,7 +442,7 @@ def add_rotor_path(
 ) -> InputPort:
     """The input that drives `rotors` (a plant's rotor commands) with the
     vehicle's own commands: through its motors' first-order lag
-    (`MotorLag`, where motor_time_constant > 0) and, for Drake's "+"
+    (`systems.rotors.motor_lag`, where motor_time_constant > 0) and, for Drake's "+"
     QuadrotorPlant (`to_plus`) flying an "x" vehicle, through the map to
     the "+" commands of the same wrench (`quadcopter.plus_commands`).
     `rotors` itself where neither applies."""
@@ -452,7 +452,7 @@ def add_rotor_path(
         rotors = gain.get_input_port()
     if vehicle.motor_time_constant > 0.0:
         lag = builder.AddSystem(
-            MotorLag(vehicle.motor_time_constant, vehicle.hover_command)
+            motor_lag(vehicle.motor_time_constant, vehicle.hover_command)
         )
         builder.Connect(lag.get_output_port(), rotors)
         rotors = lag.get_input_port()
