@@ -150,3 +150,53 @@ def _scaled(params, vehicle: Vehicle, mu: float, lam: float, t: float):
         changes["max_tilt"] = tilt
         changes["attitude_natural_frequency"] = params.attitude_natural_frequency / t
     return dataclasses.replace(params, **changes)
+
+
+def similar_scenario(scenario, vehicle: Vehicle):
+    """`scenario` as the scene similar to it for `vehicle` (a Scenario
+    written for the reference band, e.g. the paper's): every length (start,
+    goal, obstacles, sphere sensor, goal tolerance, ground) scaled by λ and
+    the duration by t (`scales`), flown by `vehicle`; a convex shape by its
+    `scale`. A check of the law: the vehicle should fly it as the reference
+    flies `scenario` (tests/test_vehicle_family.py)."""
+    _, lam, t = scales(vehicle, scenario.navigator)
+    obstacles = [
+        dataclasses.replace(
+            o,
+            shape=_scaled_shape(o.shape, lam),
+            position=[lam * x for x in o.position],
+        )
+        for o in scenario.obstacles
+    ]
+    changes = {}
+    if hasattr(scenario.sensor, "radius"):
+        changes["sensor"] = dataclasses.replace(
+            scenario.sensor, radius=lam * scenario.sensor.radius
+        )
+    if scenario.ground is not None:
+        changes["ground"] = dataclasses.replace(
+            scenario.ground, height=lam * scenario.ground.height
+        )
+    return dataclasses.replace(
+        scenario,
+        vehicle=vehicle,
+        start=[lam * x for x in scenario.start],
+        goal=[lam * x for x in scenario.goal],
+        obstacles=obstacles,
+        goal_tolerance=lam * scenario.goal_tolerance,
+        duration=t * scenario.duration,
+        **changes,
+    )
+
+
+def _scaled_shape(shape, lam: float):
+    changes = {}
+    for f in dataclasses.fields(shape):
+        value = getattr(shape, f.name)
+        if f.name == "vertices":  # `scale` scales them too
+            continue
+        if f.name in ("scale", "radius", "length"):
+            changes[f.name] = lam * value
+        elif isinstance(value, list):  # Box.size, Ellipsoid.radii
+            changes[f.name] = [lam * x for x in value]
+    return dataclasses.replace(shape, **changes)
