@@ -36,8 +36,8 @@ from mfi_drake.config.parameters import (
     paper_form,
     validate_params,
 )
-from mfi_drake.config.vehicle_model import VehicleModel
-from mfi_drake.config.vehicles import Vehicle, VehicleError, as_vehicle
+from mfi_drake.config.vehicle_model import VehicleModel, vehicle_field_problems
+from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.maths.escape import EscapeParams
 from mfi_drake.maths.point_maps import MAP_VOXEL
 
@@ -214,8 +214,7 @@ class Scenario:
     start: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.5])  # m
     goal: list[float] = field(default_factory=list)  # m; required: no default
     duration: float = 30.0  # s of simulated time
-    # A preset's name, a !Vehicle or a !VehicleModel (docs/vehicles.md).
-    vehicle: str | Vehicle | VehicleModel = "drake_default"
+    vehicle: str | Vehicle | VehicleModel = "drake_default"  # docs/vehicles.md
     sensor: Sensor = field(default_factory=SphereSensor)
     obstacles: list[Obstacle] = field(default_factory=list)
     # An SDFormat (.sdf) or URDF (.urdf) file, relative to the YAML file, whose
@@ -434,11 +433,8 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     _check_goal(where, "goal", scenario.goal)
     _check_positive(where, "duration", scenario.duration)
     _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
-    if not isinstance(scenario.vehicle, VehicleModel):  # read at loading
-        try:
-            as_vehicle(scenario.vehicle)
-        except VehicleError as e:
-            raise ScenarioError(f"{where}: {e}") from None
+    for name, value, reason in vehicle_field_problems(scenario.vehicle):
+        fail(where, name, value, reason)
     if isinstance(scenario.sensor, SphereSensor):
         _check_positive(where, "sensor.radius", scenario.sensor.radius)
     elif isinstance(scenario.sensor, Cameras):

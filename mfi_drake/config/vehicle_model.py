@@ -35,6 +35,7 @@ from mfi_drake.config.vehicles import (
     VehicleError,
     as_vehicle,
     vehicle_model_path,
+    vehicle_problems,
 )
 from mfi_drake.files import write_text
 from mfi_drake.maths.quadcopter import rotor_angles, rotor_xy
@@ -154,6 +155,20 @@ class VehicleModel:
     # "+" or "x"; "" : from the rotor bodies' places ("+" without them).
     layout: str = ""
     name: str = ""  # "": the file's first model's name
+
+
+def vehicle_field_problems(vehicle) -> list[tuple[str, object, str]]:
+    """A scenario's `vehicle` field's problems as (field, value, reason): an
+    unknown preset, a `Vehicle`'s bad values (`vehicle_problems`); a
+    `VehicleModel`'s are found where its file is read, at loading."""
+    if isinstance(vehicle, VehicleModel):
+        return []
+    if isinstance(vehicle, Vehicle):
+        return [(f"vehicle.{n}", v, why) for n, v, why in vehicle_problems(vehicle)]
+    if vehicle not in VEHICLES:
+        shown = f"must be one of {sorted(VEHICLES)} or a !Vehicle / !VehicleModel"
+        return [("vehicle", vehicle, shown)]
+    return []
 
 
 ROTOR_NAMES = ("rotor", "prop")  # a body whose name holds one is a rotor
