@@ -419,11 +419,21 @@ def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
 def body_vehicle(vehicle: Vehicle, body: RigidBody) -> Vehicle:
     """`vehicle` (its rotors and size) with `body`'s own mass and principal
     moments of inertia about its centre of mass (the diagonal of its
-    rotational inertia in its frame: the rotors' frame). Raises
+    rotational inertia in its frame: the rotors' frame); `vehicle` itself
+    where they agree to 1e-9 (Drake stores a body's inertia per unit
+    mass, so a model written from the record reads back within ulps). Raises
     BuilderError where the body's mass leaves too little thrust."""
     inertia = body.default_spatial_inertia()
     central = inertia.Shift(inertia.get_com()).CalcRotationalInertia()
     moments = central.CopyToFullMatrix3().diagonal()
+    same = np.allclose(
+        [body.default_mass(), *moments],
+        [vehicle.mass, *vehicle.inertia],
+        rtol=1e-9,
+        atol=0,
+    )
+    if same:  # the vehicle's own model: its record's numbers, not Drake's rounding
+        return vehicle
     try:
         return as_vehicle(
             replace(
