@@ -132,7 +132,7 @@ def add_navigation(
     *,
     body: str | RigidBody | None = None,
     method: "str | Callable | Method" = "mfi",
-    vehicle: str = "drake_default",
+    vehicle: "str | Vehicle" = "drake_default",
     sensor: Sensor | None = None,
     navigator: NavigatorParams | dict | None = None,
     faults: Faults | None = None,
@@ -151,9 +151,10 @@ def add_navigation(
 
     Keywords, as a scenario's fields: `method` ("mfi", "apf", "gf",
     "mfi-paper", "MODULE:NAME" of a user's field, or the function);
-    `vehicle` (a preset of `config.vehicles`: the controller's mass,
-    inertia and rotor constants); `sensor` (`SphereSensor`, default, or a
-    camera rig); `navigator` (NavigatorParams, or a dict of its fields
+    `vehicle` (a preset's name or a `Vehicle`, `config.vehicles`: the
+    controller's mass, inertia and rotor constants; a MultibodyPlant
+    `body`'s own mass and inertia replace the vehicle's, `body_vehicle`);
+    `sensor` (`SphereSensor`, default, or a camera rig); `navigator` (NavigatorParams, or a dict of its fields
     overriding the defaults); `faults` (`Faults`).
 
     The goal is checked, at build time, against the geometry whose pose is
@@ -179,7 +180,7 @@ def add_navigation(
 def navigation_scenario(
     goal,
     *,
-    vehicle: str = "drake_default",
+    vehicle: "str | Vehicle" = "drake_default",
     sensor: Sensor | None = None,
     navigator: NavigatorParams | dict | None = None,
     faults: Faults | None = None,

@@ -91,7 +91,7 @@ def add_sensor(
     scene_graph: SceneGraph,
     state_port: OutputPort,
     *,
-    vehicle: str = "drake_default",
+    vehicle: "str | Vehicle" = "drake_default",
     other_vehicles: int = 0,
     moving: bool = False,
     ignore=(),
