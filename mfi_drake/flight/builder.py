@@ -154,8 +154,9 @@ def add_navigation(
     `vehicle` (a preset's name or a `Vehicle`, `config.vehicles`: the
     controller's mass, inertia and rotor constants; a MultibodyPlant
     `body`'s own mass and inertia replace the vehicle's, `body_vehicle`);
-    `sensor` (`SphereSensor`, default, or a camera rig); `navigator` (NavigatorParams, or a dict of its fields
-    overriding the defaults); `faults` (`Faults`).
+    `sensor` (`SphereSensor`, default, or a camera rig); `navigator`
+    (NavigatorParams, or a dict of its fields overriding the defaults);
+    `faults` (`Faults`).
 
     The goal is checked, at build time, against the geometry whose pose is
     known then: anchored geometry, and a finalized MultibodyPlant's at its
