@@ -99,10 +99,14 @@ def test_closest_points_are_rotorpys_block_by_block():
     controller = RotorpyController([4.0, 0.0, 1.0], World(WORLD), crazyflie)
     p = np.array([2.0, 0.2, 1.0])
     points = controller.closest_points(p)
-    assert points.shape == (2, 3)
+    assert points.shape == (2 + 6, 3)  # the blocks, then the bounds' faces
     np.testing.assert_allclose(points[0], [1.5, 0.2, 1.0])
     np.testing.assert_allclose(points[1], [2.5, 0.5, 1.0])
-    # The nearest of them is what rotorpy's whole World answers.
+    # The nearest block's is what rotorpy's whole World answers.
     nearest, _ = World(WORLD).closest_points(p[None])
-    d = np.linalg.norm(points - p, axis=1)
+    d = np.linalg.norm(points[:2] - p, axis=1)
     np.testing.assert_allclose(points[np.argmin(d)], nearest[0])
+    # Each face's point is as far as rotorpy's distance to its bounds says.
+    faces = np.linalg.norm(points[2:] - p, axis=1)
+    assert faces.min() == pytest.approx(World(WORLD).min_dist_boundary(p[None])[0])
+    np.testing.assert_allclose(faces, [4.0, 3.0, 2.2, 1.8, 1.0, 2.0])

@@ -5,7 +5,8 @@
 `update(t, state, flat_output)` returns the same control dict. It reads
 each of the world's blocks' closest point to the vehicle from rotorpy's own
 `World.closest_points` (one World a block, so that every obstacle is read,
-not only the nearest), turns rotorpy's state into QuadrotorPlant's
+not only the nearest) and the faces of its bounds (leaving them is a
+collision in rotorpy), turns rotorpy's state into QuadrotorPlant's
 12-vector and calls `NavigationStep` with the vehicle `vehicle_from_quad_params`
 builds from the same quad_params rotorpy flies. The trajectory's flat
 outputs are not read: the goal is fixed, the path is MFI's.
@@ -97,7 +98,10 @@ class RotorpyController:
         self._order = rotor_order(self.vehicle, quad_params)
         self._mixer = mixer_matrix(self.vehicle)
         world_class = type(world)
-        bounds = world.world.get("bounds", {"extents": [0, 0, 0, 0, 0, 0]})
+        bounds = world.world.get("bounds")
+        # rotorpy counts leaving its bounds a collision: its six faces are
+        # obstacles too (None: a world without bounds).
+        self._bounds = None if bounds is None else np.array(bounds["extents"], float)
         # One World a block: `closest_points` answers the nearest block only.
         self._blocks = [
             world_class({"bounds": bounds, "blocks": [block]})
@@ -105,11 +109,20 @@ class RotorpyController:
         ]
 
     def closest_points(self, position: np.ndarray) -> np.ndarray:
-        """Each block's closest point to `position` (k × 3), by rotorpy."""
-        if not self._blocks:
-            return np.zeros((0, 3))
-        query = np.asarray(position, float).reshape(1, 3)
-        return np.array([block.closest_points(query)[0][0] for block in self._blocks])
+        """Each block's closest point to `position`, by rotorpy's
+        `World.closest_points`, then the closest point of each face of the
+        world's bounds (k × 3)."""
+        p = np.asarray(position, float).reshape(1, 3)
+        points = [block.closest_points(p)[0][0] for block in self._blocks]
+        if self._bounds is not None:
+            low, high = self._bounds[0::2], self._bounds[1::2]
+            inside = np.clip(p[0], low, high)
+            for axis in range(3):
+                for side in (low, high):
+                    face = inside.copy()
+                    face[axis] = side[axis]
+                    points.append(face)
+        return np.array(points).reshape(-1, 3)
 
     def update(self, t: float, state: dict, flat_output: dict) -> dict:
         """rotorpy's controller call: the control dict of its SE3Control
