@@ -17,7 +17,13 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from mfi_drake import NavigationStep, add_navigation, add_vehicle_model, simulate
+from mfi_drake import (
+    NavigationStep,
+    add_navigation,
+    add_vehicle_model,
+    load_scenario,
+    simulate,
+)
 from mfi_drake.app.cli import main
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario_yaml import (
@@ -311,3 +317,28 @@ def test_the_compiled_engine_flies_an_x_vehicle_with_a_lag_as_the_systems_do():
     end = [f.log["state"][-1, :3] for f in (systems, compiled)]
     assert np.linalg.norm(end[0] - scenario.start) > 1.0  # it flew
     np.testing.assert_allclose(end[0], end[1], atol=1e-4)
+
+
+def test_a_model_file_from_the_command_line_flies_as_its_preset(tmp_path, capsys):
+    """x500's shipped model as a !VehicleModel in a --set: read into the
+    very record of the preset (the same flight), and a missing file is one
+    line and exit status 2."""
+    x500 = VEHICLES["x500"]
+    model = (
+        f"vehicle: !VehicleModel {{file: {vehicle_model_path('x500')}, "
+        f"kF: {x500.kF!r}, kM: {x500.kM!r}, u_max: {x500.u_max!r}, "
+        f"rotor_radius: {x500.rotor_radius!r}, layout: x, "
+        f"motor_time_constant: {x500.motor_time_constant!r}}}"
+    )
+    scenario = load_scenario(PLANAR_WALL, [("--set", model)])
+    got = scenario.vehicle
+    for name in ("mass", "arm_length", "kF", "kM", "u_max", "motor_time_constant"):
+        assert getattr(got, name) == pytest.approx(getattr(x500, name), rel=1e-12)
+    assert got.inertia == pytest.approx(x500.inertia, rel=1e-12)
+    assert got.layout == "x"
+    missing = "vehicle: !VehicleModel {file: nope.urdf, kF: 1, kM: 0.02, u_max: 4, "
+    missing += "rotor_radius: 0.1}"
+    args = ["run", PLANAR_WALL, "--set", missing, "--out", str(tmp_path)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "vehicle.file = 'nope.urdf': no such file" in err

@@ -141,7 +141,9 @@ def _read_file(path: str) -> str:
 
 def layer(scenario: Scenario, text: str, where: str) -> Scenario:
     """`scenario` with the YAML mapping `text` loaded on top of it (fields
-    that `text` does not name keep their values). Not validated."""
+    that `text` does not name keep their values); a `!VehicleModel` read
+    into its `Vehicle` (its file relative to the scenario's directory).
+    Not validated."""
     raw = _read_yaml(text, where)
     if raw is None:
         return scenario
@@ -149,6 +151,10 @@ def layer(scenario: Scenario, text: str, where: str) -> Scenario:
     base_dir = scenario.base_dir
     layered = _typed(Scenario, text, where, defaults=scenario)
     layered.base_dir = base_dir
+    try:  # a model file is flown as the record it reads
+        layered.vehicle = _vehicle_record(layered.vehicle, base_dir)
+    except VehicleError as e:
+        raise ScenarioError(f"{where}: {e}") from None
     return layered
 
 
@@ -196,10 +202,6 @@ def parse_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> Scenario
     scenario = layer(scenario, _read_file(path), path)
     for where, text in overrides:
         scenario = layer(scenario, text, where)
-    try:  # a model file is flown as the record it reads
-        scenario.vehicle = _vehicle_record(scenario.vehicle, scenario.base_dir)
-    except VehicleError as e:
-        raise ScenarioError(f"{layered_name(path, overrides)}: {e}") from None
     check_scenario(scenario, layered_name(path, overrides))
     return scenario
 
