@@ -27,6 +27,7 @@ torques: cos max_tilt ≥ 1 / (0.9 T/W).
 import dataclasses
 import math
 
+from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.vehicles import VEHICLES, Vehicle
 
 REFERENCE = ("drake_default", "pelican")  # the vehicles the defaults fit
@@ -105,8 +106,6 @@ def scales(vehicle: Vehicle, params) -> tuple[float, float, float]:
     """(μ, λ, t): mass, length and time scales of `vehicle` against the
     reference band, the time from `params`' attitude loop (a
     NavigatorParams; the defaults' for any other)."""
-    from mfi_drake.config.parameters import NavigatorParams
-
     if not isinstance(params, NavigatorParams):
         params = NavigatorParams()
     masses = [VEHICLES[n].mass for n in REFERENCE]

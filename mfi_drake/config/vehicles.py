@@ -10,7 +10,7 @@ constant and kM = kF · moment constant.
 
 import math
 import os
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -238,6 +238,3 @@ def as_vehicle(vehicle: "str | Vehicle", where: str = "vehicle") -> Vehicle:
     for name, value, reason in vehicle_problems(vehicle):
         raise VehicleError(f"{where}.{name} = {value!r}: {reason}")
     return vehicle
-
-
-VEHICLE_FIELDS = tuple(f.name for f in fields(Vehicle))

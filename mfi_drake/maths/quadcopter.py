@@ -8,7 +8,7 @@ thrust toward +x, +roll toward −y.
 
 from __future__ import annotations
 
-import copy
+import dataclasses
 import math
 from typing import TYPE_CHECKING
 
@@ -247,7 +247,7 @@ def mixer_matrix(vehicle: Vehicle) -> np.ndarray:
     rotor k at (x_k, y_k) pushing kF u_k along +z (τx = kF u y, τy = −kF u x)
     and twisting ±kM u_k about it."""
     kF, kM = vehicle.kF, vehicle.kM
-    xy = rotor_xy(vehicle.arm_length, getattr(vehicle, "layout", "+"))
+    xy = rotor_xy(vehicle.arm_length, vehicle.layout)
     spin = np.array([1.0, -1.0, 1.0, -1.0])
     return np.vstack(
         [np.full(ROTORS, kF), kF * xy[:, 1], -(kF * xy[:, 0]) + 0.0, kM * spin]
@@ -259,8 +259,7 @@ def plus_commands(vehicle: Vehicle) -> np.ndarray:
     QuadrotorPlant's "+" rotors that give the body the same thrust and
     torques, D₊⁻¹ D (identity for a "+" vehicle): Drake's plant sums its
     rotors into one wrench, so an "x" vehicle flies exactly through it."""
-    plus = copy.copy(vehicle)
-    plus.layout = "+"
+    plus = dataclasses.replace(vehicle, layout="+")
     return np.linalg.solve(mixer_matrix(plus), mixer_matrix(vehicle))
 
 
