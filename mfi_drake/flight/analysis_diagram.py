@@ -35,6 +35,13 @@ class AnalysisDiagram:
     params: NavigatorParams
     goal: np.ndarray
 
+    def state(self, x: np.ndarray) -> np.ndarray:
+        """The diagram's whole continuous state for the plant's 12-state x:
+        the plant's come first, then the motors' lag (where the vehicle has
+        one, `flight.builder.add_rotor_path`) at hover, its state 0."""
+        size = self.diagram.CreateDefaultContext().num_continuous_states()
+        return np.concatenate([x, np.zeros(size - len(x))])
+
 
 def build_analysis_diagram(
     scenario: Scenario,

@@ -31,13 +31,10 @@ SWEPT_GAINS = ("K_P", "K_D", "K_Ptheta", "K_Dtheta")
 
 def linearize_closed_loop(analysis: AnalysisDiagram, x0: np.ndarray) -> np.ndarray:
     """A of the closed loop at x0 by Drake's `Linearize` (AutoDiffXd). x0:
-    the whole continuous state, or the plant's 12-state (the motors' lag,
-    where the vehicle has one, then at its default: hover)."""
+    the whole continuous state, or the plant's 12-state (`analysis.state`:
+    the motors' lag, where the vehicle has one, at hover)."""
     context = analysis.diagram.CreateDefaultContext()
-    if len(x0) == context.num_continuous_states():
-        context.SetContinuousState(x0)
-    else:
-        analysis.plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
+    context.SetContinuousState(analysis.state(x0))
     # Norms of zero vectors (v at hover, the tilt command) have infinite
     # derivatives; they are only compared, never used, so their floating-
     # point flags are not warnings here.

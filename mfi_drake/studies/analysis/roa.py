@@ -87,7 +87,7 @@ def roa_sos(scenario: Scenario) -> dict:
     ω_n), time in units of 1/√(ω_p ω_n), ω_p = √(K_P/m), ω_n = √a.
     """
     c = reduced_model_constants(scenario)
-    params = scenario.navigator
+    params = for_vehicle(scenario.navigator, as_vehicle(scenario.vehicle))
     variables = [Variable(n) for n in ("e", "v", "theta", "omega")]
     metres_per_rad = c["m"] * GRAVITY / (c["K_Pv"] * c["K_P"])
     omega_n = np.sqrt(c["a"])
@@ -198,7 +198,7 @@ def converges_from(
     x0 = hover_state(goal)
     x0[0:3] += offset[0:3]
     x0[6:9] += offset[3:6]
-    context.SetContinuousState(x0)
+    context.SetContinuousState(analysis.state(x0))
     outcome = {}
 
     def monitor(root_context):
