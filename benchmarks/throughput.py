@@ -75,7 +75,7 @@ from pydrake.systems.primitives import LogVectorOutput
 
 from mfi_drake.config.scenario import Scenario, ScenarioError
 from mfi_drake.config.scenario_yaml import read_override, scenario_to_yaml
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.files import write_section
 from mfi_drake.flight.diagram import build_diagram, make_plant
 from mfi_drake.flight.methods import DEFAULT_METHODS
@@ -167,7 +167,7 @@ def lqr_run(scenario: Scenario, python_systems: int = 0) -> Run:
     """QuadrotorPlant + StabilizingLQRController hovering at scenario.start;
     with `python_systems` `PythonPassThrough`s in turn between the two."""
     builder = DiagramBuilder()
-    plant = builder.AddSystem(make_plant(VEHICLES[scenario.vehicle]))
+    plant = builder.AddSystem(make_plant(as_vehicle(scenario.vehicle)))
     controller = builder.AddSystem(
         StabilizingLQRController(plant, np.asarray(scenario.start, float))
     )

@@ -24,6 +24,8 @@ The builder API, MFI in a user's own Drake diagram:
   Drake's ApplySimulatorConfig (eq 21's witnesses read the context's
   accuracy);
 - `BuilderError`: a bad argument, named;
+- any quadrotor: `Vehicle`, `VehicleModel` and `as_vehicle(vehicle)`, what
+  every entry point's `vehicle` takes (docs/vehicles.md);
 - the MultibodyPlant vehicle: `vehicle_model_path(name)` (its SDFormat
   file), `add_vehicle_model(plant, vehicle)`, `add_propellers`,
   `add_vehicle_state` (`MultibodyVehicleState`), `place_vehicle`.
@@ -35,7 +37,7 @@ mode fixed, nothing seen), `hover_state(goal)`, `linearize_closed_loop`
 Every name is documented in docs/api.md; examples/ runs them.
 
 The layers, imports only downward (tests/test_layers.py): maths → config →
-world → systems → flight → studies → app.
+world → systems → flight → adapters → studies → app.
 """
 
 import importlib
@@ -77,6 +79,9 @@ _API = {
     "place_vehicle": "mfi_drake.systems.multibody",
     "MultibodyVehicleState": "mfi_drake.systems.multibody",
     "vehicle_model_path": "mfi_drake.config.vehicles",
+    "Vehicle": "mfi_drake.config.vehicles",
+    "as_vehicle": "mfi_drake.config.vehicles",
+    "VehicleModel": "mfi_drake.config.vehicle_model",
     "build_analysis_diagram": "mfi_drake.flight.analysis_diagram",
     "hover_state": "mfi_drake.flight.analysis_diagram",
     "linearize_closed_loop": "mfi_drake.studies.analysis.linearization",

@@ -106,6 +106,22 @@ def check_analysis(out: str, _) -> None:
     assert linear_error < offset
 
 
+def check_rotorpy_crazyflie(out: str, _) -> None:
+    """rotorpy's Crazyflie reaches the goal without contact; the oracle is
+    the same world flown by mfi_drake's own simulation (its printed second
+    line): the two models differ (rotor drag, motor lag on rotor speed),
+    so clearance and path agree to within 3 cm and 10 %."""
+    pattern = (
+        r"NAME: reached the goal at t = NUMBER s, least clearance NUMBER m, "
+        r"path length NUMBER m"
+    )
+    _, clearance, length = numbers(pattern.replace("NAME", "rotorpy"), out)
+    _, own_clearance, own_length = numbers(pattern.replace("NAME", "mfi_drake"), out)
+    assert clearance > 0.0 and own_clearance > 0.0
+    assert clearance == pytest.approx(own_clearance, abs=0.03)
+    assert length == pytest.approx(own_length, rel=0.1)
+
+
 @pytest.mark.parametrize(
     "script", EXAMPLES, ids=[os.path.basename(p) for p in EXAMPLES]
 )

@@ -15,7 +15,7 @@ import mfi_drake
 
 PACKAGE = pathlib.Path(mfi_drake.__file__).parent
 # Lowest first. `files` (atomic writes) is a leaf everyone may use.
-LAYERS = ["maths", "config", "world", "systems", "flight", "studies", "app"]
+LAYERS = ["maths", "config", "world", "systems", "flight", "adapters", "studies", "app"]
 RANK = {name: i for i, name in enumerate(LAYERS)} | {"files": 0}
 
 

@@ -16,6 +16,7 @@ from mfi_drake.maths.quadcopter import (
     attitude_setpoint,
     mix,
     mixer_matrix,
+    plus_commands,
     wrap_angle,
 )
 from mfi_drake.systems.control import AttitudePD, RotorMixer
@@ -25,7 +26,8 @@ P = NavigatorParams()
 
 @pytest.mark.parametrize("name", sorted(VEHICLES))
 def test_mixer_matrix_matches_the_plant_dynamics(name):
-    """[T, τ] = D u, read back from the plant's accelerations at rest."""
+    """[T, τ] = D u, read back from the plant's accelerations at rest (an "x"
+    vehicle's u reaches Drake's "+" plant through `plus_commands`)."""
     vehicle = VEHICLES[name]
     plant = make_plant(vehicle)
     context = plant.CreateDefaultContext()
@@ -33,7 +35,7 @@ def test_mixer_matrix_matches_the_plant_dynamics(name):
     D = mixer_matrix(vehicle)
     for _ in range(5):
         u = rng.uniform(0.2, 1.0, size=4) * vehicle.u_max
-        plant.get_input_port(0).FixValue(context, u)
+        plant.get_input_port(0).FixValue(context, plus_commands(vehicle) @ u)
         xdot = plant.EvalTimeDerivatives(context).CopyToVector()
         T, tau = (D @ u)[0], (D @ u)[1:]
         assert xdot[8] == pytest.approx(T / vehicle.mass - GRAVITY, rel=1e-12)
@@ -269,10 +271,15 @@ def test_the_brake_margin_keeps_the_turn_continuous_where_it_grazes_the_limit():
 @pytest.mark.parametrize("name", sorted(VEHICLES))
 @pytest.mark.parametrize("force", [[0.3, 0, 0], [0, 0.3, 0], [0, -0.3, 0], [0, 0, 0.5]])
 def test_commanded_force_moves_the_vehicle_that_way(name, force):
-    """Open-loop in position: F_n constant, attitude PD + mixer + plant."""
+    """Open-loop in position: F_n constant, attitude PD + mixer + plant (and
+    the vehicle's motor lag and "x" map, `add_rotor_path`); F_n per unit
+    mass as for drake_default's 0.775 kg."""
     from pydrake.systems.analysis import Simulator
 
+    from mfi_drake.flight.builder import add_rotor_path
+
     vehicle = VEHICLES[name]
+    force = np.asarray(force) * vehicle.mass / 0.775
     builder = DiagramBuilder()
     plant = builder.AddSystem(make_plant(vehicle))
     source = builder.AddSystem(ConstantVectorSource(np.asarray(force, float)))
@@ -281,7 +288,10 @@ def test_commanded_force_moves_the_vehicle_that_way(name, force):
     builder.Connect(source.get_output_port(), attitude.GetInputPort("navigation_force"))
     builder.Connect(plant.get_output_port(0), attitude.GetInputPort("state"))
     builder.Connect(attitude.GetOutputPort("thrust_torque"), mixer.get_input_port())
-    builder.Connect(mixer.GetOutputPort("propeller_force"), plant.get_input_port(0))
+    builder.Connect(
+        mixer.GetOutputPort("propeller_force"),
+        add_rotor_path(builder, vehicle, plant.get_input_port(0), True),
+    )
     simulator = Simulator(builder.Build())
     simulator.AdvanceTo(1.5)
     x = plant.GetMyContextFromRoot(

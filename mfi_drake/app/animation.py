@@ -37,7 +37,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from mfi_drake.app.figures import OUTCOME_WORDS, map_drawn
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.files import write_text
 from mfi_drake.flight.methods import appearance
 from mfi_drake.flight.result import Flight, outcome
@@ -75,7 +75,7 @@ def _rgba(method: str) -> Rgba:
 def _record(
     meshcat: Meshcat, scenario: Scenario, flight: Flight, with_obstacles: bool
 ) -> None:
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     builder = DiagramBuilder()
     scene_graph = builder.AddSystem(SceneGraph())
     frames = register_obstacles(scene_graph, scenario) if with_obstacles else None

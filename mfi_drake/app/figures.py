@@ -19,6 +19,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from mfi_drake.config.dynamic import moves
 from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.files import atomic_path
 from mfi_drake.flight.methods import appearance
 from mfi_drake.flight.result import outcome as flight_outcome
@@ -223,7 +224,7 @@ def flights_figure(scenario: Scenario, flights: list, title: str = "") -> Figure
     ax_len.set_xlabel("time [s]")
     handles, labels = ax3d.get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=9)
-    fig.suptitle(title or f"{scenario.name} ({scenario.vehicle})")
+    fig.suptitle(title or f"{scenario.name} ({as_vehicle(scenario.vehicle).name})")
     fig.tight_layout(rect=(0, 0.06, 1, 0.95))
     return fig
 

@@ -36,7 +36,8 @@ from mfi_drake.config.parameters import (
     paper_form,
     validate_params,
 )
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicle_model import VehicleModel, vehicle_field_problems
+from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.config.worlds import WorldPose, world_problems
 from mfi_drake.maths.escape import EscapeParams
 from mfi_drake.maths.point_maps import MAP_VOXEL
@@ -214,7 +215,7 @@ class Scenario:
     start: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.5])  # m
     goal: list[float] = field(default_factory=list)  # m; required: no default
     duration: float = 30.0  # s of simulated time
-    vehicle: str = "drake_default"
+    vehicle: str | Vehicle | VehicleModel = "drake_default"  # docs/vehicles.md
     sensor: Sensor = field(default_factory=SphereSensor)
     obstacles: list[Obstacle] = field(default_factory=list)
     # A Gazebo (.world, .sdf), URDF or MJCF (.xml) file, relative to the YAML
@@ -437,8 +438,8 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     _check_goal(where, "goal", scenario.goal)
     _check_positive(where, "duration", scenario.duration)
     _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
-    if scenario.vehicle not in VEHICLES:
-        fail(where, "vehicle", scenario.vehicle, f"must be one of {sorted(VEHICLES)}")
+    for name, value, reason in vehicle_field_problems(scenario.vehicle):
+        fail(where, name, value, reason)
     if isinstance(scenario.sensor, SphereSensor):
         _check_positive(where, "sensor.radius", scenario.sensor.radius)
     elif isinstance(scenario.sensor, Cameras):

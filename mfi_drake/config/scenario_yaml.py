@@ -25,6 +25,8 @@ from mfi_drake.config.scenario import (
     check_scenario,
     fail,
 )
+from mfi_drake.config.vehicle_model import VehicleModel, read_vehicle_model
+from mfi_drake.config.vehicles import Vehicle, VehicleError
 
 
 class _TaggedLoader(yaml.SafeLoader):
@@ -99,6 +101,8 @@ def _check_value(value, hint, where: str, name: str) -> None:
         if value is None and type(None) in alternatives:  # an optional block
             return
         options = {t.__name__: t for t in alternatives if t is not type(None)}
+        if str in alternatives and isinstance(value, str):  # a vehicle's name
+            return
         # Untagged is the first alternative, as Drake writes and reads it.
         first = next(iter(options))
         tag = value.get("_tag", first) if isinstance(value, dict) else None
@@ -137,7 +141,9 @@ def _read_file(path: str) -> str:
 
 def layer(scenario: Scenario, text: str, where: str) -> Scenario:
     """`scenario` with the YAML mapping `text` loaded on top of it (fields
-    that `text` does not name keep their values). Not validated."""
+    that `text` does not name keep their values); a `!VehicleModel` read
+    into its `Vehicle` (its file relative to the scenario's directory).
+    Not validated."""
     raw = _read_yaml(text, where)
     if raw is None:
         return scenario
@@ -145,6 +151,10 @@ def layer(scenario: Scenario, text: str, where: str) -> Scenario:
     base_dir = scenario.base_dir
     layered = _typed(Scenario, text, where, defaults=scenario)
     layered.base_dir = base_dir
+    try:  # a model file is flown as the record it reads
+        layered.vehicle = _vehicle_record(layered.vehicle, base_dir)
+    except VehicleError as e:
+        raise ScenarioError(f"{where}: {e}") from None
     return layered
 
 
@@ -196,6 +206,14 @@ def parse_scenario(path: str, overrides: list[tuple[str, str]] = ()) -> Scenario
     return scenario
 
 
+def _vehicle_record(vehicle, base_dir: str):
+    """A !VehicleModel read into its Vehicle, a !Vehicle with its inertia a
+    tuple (as `Vehicle` holds it), a preset's name as it is."""
+    if isinstance(vehicle, VehicleModel):
+        return read_vehicle_model(vehicle, base_dir)
+    return dataclasses.replace(vehicle) if isinstance(vehicle, Vehicle) else vehicle
+
+
 @functools.cache
 def _file_schema() -> type:
     """Scenario's fields as a YAML file holds them: all but base_dir, which
@@ -218,4 +236,6 @@ def scenario_from_yaml(text: str, base_dir: str = "") -> Scenario:
     """The inverse of `scenario_to_yaml` (trusted text: not validated), its
     relative mesh files resolved against `base_dir`."""
     defaults = Scenario(base_dir=base_dir)
-    return yaml_load_typed(schema=Scenario, data=text, defaults=defaults)
+    scenario = yaml_load_typed(schema=Scenario, data=text, defaults=defaults)
+    scenario.vehicle = _vehicle_record(scenario.vehicle, base_dir)
+    return scenario

@@ -16,7 +16,9 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.config.vehicle_gains import for_vehicle
+from mfi_drake.config.vehicles import Vehicle, as_vehicle
+from mfi_drake.flight.builder import add_rotor_path
 from mfi_drake.flight.chain import connect_controller
 from mfi_drake.flight.diagram import make_plant
 from mfi_drake.maths import fields
@@ -33,6 +35,13 @@ class AnalysisDiagram:
     params: NavigatorParams
     goal: np.ndarray
 
+    def state(self, x: np.ndarray) -> np.ndarray:
+        """The diagram's whole continuous state for the plant's 12-state x:
+        the plant's come first, then the motors' lag (where the vehicle has
+        one, `flight.builder.add_rotor_path`) at hover, its state 0."""
+        size = self.diagram.CreateDefaultContext().num_continuous_states()
+        return np.concatenate([x, np.zeros(size - len(x))])
+
 
 def build_analysis_diagram(
     scenario: Scenario,
@@ -41,8 +50,8 @@ def build_analysis_diagram(
 ) -> AnalysisDiagram:
     """The MFI closed loop of `scenario` with eq 21's `mode` fixed and no
     obstacle seen; `attitude_K` = (K_Pθ, K_Dθ) overrides eq 25's gains."""
-    vehicle = VEHICLES[scenario.vehicle]
-    params = scenario.navigator
+    vehicle = as_vehicle(scenario.vehicle)
+    params = for_vehicle(scenario.navigator, vehicle)  # AttitudePD's own too
     goal = np.asarray(scenario.goal, float)
     K_P, K_D = attitude_K if attitude_K is not None else (None, None)
     builder = DiagramBuilder()
@@ -55,7 +64,7 @@ def build_analysis_diagram(
         for name, system in (
             ("navigator", MfiNavigator(params, goal, vehicle.collision_radius)),
             ("selector", GoalAttractionSelector(params, goal, mode)),
-            ("attitude_pd", AttitudePD(vehicle, params, K_P, K_D)),
+            ("attitude_pd", AttitudePD(vehicle, scenario.navigator, K_P, K_D)),
             ("mixer", RotorMixer(vehicle)),
         )
     ]
@@ -64,7 +73,7 @@ def build_analysis_diagram(
         plant.get_output_port(0),
         nothing_seen.get_output_port(0),
         *controller,
-        plant.get_input_port(0),
+        add_rotor_path(builder, vehicle, plant.get_input_port(0), True),
     )
     diagram = builder.Build()
     diagram.set_name(f"mfi_drake analysis[{scenario.name}, mode {mode}]")

@@ -19,7 +19,6 @@ same way (`add_scenario_navigation`), so a scenario's flight and a user's
 flight of the same scene are the same computation.
 """
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 
@@ -35,7 +34,7 @@ from pydrake.systems.framework import (
     InputPort,
     OutputPort,
 )
-from pydrake.systems.primitives import VectorLogSink
+from pydrake.systems.primitives import MatrixGain, VectorLogSink
 
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.parameters import NavigatorParams
@@ -46,7 +45,7 @@ from mfi_drake.config.scenario import (
     SphereSensor,
     check_scenario,
 )
-from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.config.vehicles import Vehicle, VehicleError, as_vehicle
 from mfi_drake.flight.chain import (
     CameraMount,
     add_controller,
@@ -58,7 +57,9 @@ from mfi_drake.flight.chain import (
 from mfi_drake.flight.methods import Method, MethodError, resolve_method
 from mfi_drake.flight.scene import goal_obstacle, scene_moves
 from mfi_drake.maths.layout import POSITION, STATE_SIZE
+from mfi_drake.maths.quadcopter import plus_commands
 from mfi_drake.systems.multibody import add_propellers, add_vehicle_state, place_vehicle
+from mfi_drake.systems.rotors import motor_lag
 
 WITNESS_SCALE = 0.01  # Drake's witness isolation window over the context's accuracy
 
@@ -131,7 +132,7 @@ def add_navigation(
     *,
     body: str | RigidBody | None = None,
     method: "str | Callable | Method" = "mfi",
-    vehicle: str = "drake_default",
+    vehicle: "str | Vehicle" = "drake_default",
     sensor: Sensor | None = None,
     navigator: NavigatorParams | dict | None = None,
     faults: Faults | None = None,
@@ -150,10 +151,12 @@ def add_navigation(
 
     Keywords, as a scenario's fields: `method` ("mfi", "apf", "gf",
     "mfi-paper", "MODULE:NAME" of a user's field, or the function);
-    `vehicle` (a preset of `config.vehicles`: the controller's mass,
-    inertia and rotor constants); `sensor` (`SphereSensor`, default, or a
-    camera rig); `navigator` (NavigatorParams, or a dict of its fields
-    overriding the defaults); `faults` (`Faults`).
+    `vehicle` (a preset's name or a `Vehicle`, `config.vehicles`: the
+    controller's mass, inertia and rotor constants; a MultibodyPlant
+    `body`'s own mass and inertia replace the vehicle's, `body_vehicle`);
+    `sensor` (`SphereSensor`, default, or a camera rig); `navigator`
+    (NavigatorParams, or a dict of its fields overriding the defaults);
+    `faults` (`Faults`).
 
     The goal is checked, at build time, against the geometry whose pose is
     known then: anchored geometry, and a finalized MultibodyPlant's at its
@@ -178,7 +181,7 @@ def add_navigation(
 def navigation_scenario(
     goal,
     *,
-    vehicle: str = "drake_default",
+    vehicle: "str | Vehicle" = "drake_default",
     sensor: Sensor | None = None,
     navigator: NavigatorParams | dict | None = None,
     faults: Faults | None = None,
@@ -253,14 +256,16 @@ def add_scenario_navigation(
         method = resolve_method(method)
     except MethodError as e:
         raise BuilderError(f"method = {method!r}: {e}") from None
-    if scenario.vehicle not in VEHICLES:
-        raise BuilderError(
-            f"vehicle = {scenario.vehicle!r}: must be one of {sorted(VEHICLES)}"
-        )
+    try:
+        vehicle = as_vehicle(scenario.vehicle)
+    except VehicleError as e:
+        raise BuilderError(str(e)) from None
     _check_added(builder, "scene_graph", scene_graph, SceneGraph)
     rig = _vehicle(builder, plant, body, scene_graph, scenario)
+    if rig.vehicle is not None:  # a MultibodyPlant body's own mass and inertia
+        vehicle = rig.vehicle
+        scenario = replace(scenario, vehicle=vehicle)
     ignored = own_geometry(scene_graph, rig.own_frames)
-    vehicle = VEHICLES[scenario.vehicle]
     touched = check_goal and goal_obstacle(
         builder, scene_graph, scenario.goal, vehicle.collision_radius, ignored
     )
@@ -277,7 +282,7 @@ def add_scenario_navigation(
         scenario.sensor,
         scene_graph,
         rig.state,
-        vehicle=scenario.vehicle,
+        vehicle=vehicle,
         other_vehicles=len(scenario.other_vehicles),
         moving=moving,
         ignore=ignored,
@@ -326,6 +331,7 @@ class _Rig:
     state: OutputPort | None = None
     rotor_command: InputPort | None = None
     add_ports: Callable[[], tuple[OutputPort, InputPort]] | None = None
+    vehicle: Vehicle | None = None  # a MultibodyPlant body's, where it differs
 
     def connect(self) -> None:
         if self.add_ports is not None:
@@ -346,12 +352,15 @@ def _vehicle(builder, plant, body, scene_graph, scenario: Scenario) -> _Rig:
         _check_added(builder, "plant", plant, QuadrotorPlant)
         if body is not None:
             raise BuilderError(f"body = {body!r}: only a MultibodyPlant has bodies")
+        vehicle = as_vehicle(scenario.vehicle)
         return _Rig(
-            state=plant.get_output_port(0),
-            rotor_command=plant.get_input_port(0),
             own_frames=(),
             mount=None,
             place=lambda context, p: place_quadrotor(plant, context, p),
+            add_ports=lambda: (
+                plant.get_output_port(0),
+                add_rotor_path(builder, vehicle, plant.get_input_port(0), True),
+            ),
         )
     if isinstance(plant, MultibodyPlant):
         _check_added(builder, "plant", plant, MultibodyPlant)
@@ -378,13 +387,7 @@ def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
             "before add_navigation"
         )
     rigid = _floating_body(plant, body)
-    vehicle = VEHICLES[scenario.vehicle]
-    mass = rigid.default_mass()
-    if not math.isclose(mass, vehicle.mass, rel_tol=1e-9):
-        raise BuilderError(
-            f"vehicle = {scenario.vehicle!r}: its mass {vehicle.mass} kg is not "
-            f"body {rigid.name()!r}'s {mass} kg"
-        )
+    vehicle = body_vehicle(as_vehicle(scenario.vehicle), rigid)
     own, mount = (), None
     if (
         plant.geometry_source_is_registered()
@@ -401,15 +404,71 @@ def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
 
     def add_ports() -> tuple[OutputPort, InputPort]:
         state = add_vehicle_state(builder, plant, rigid)
-        propeller = add_propellers(builder, plant, rigid, scenario.vehicle)
-        return state.GetOutputPort("state"), propeller.get_command_input_port()
+        propeller = add_propellers(builder, plant, rigid, vehicle)
+        command = propeller.get_command_input_port()
+        return state.GetOutputPort("state"), add_rotor_path(
+            builder, vehicle, command, False
+        )
 
     def place(context: Context, position: np.ndarray) -> None:
         place_vehicle(
             plant, plant.GetMyMutableContextFromRoot(context), rigid, position
         )
 
-    return _Rig(own, mount, place, body=rigid, add_ports=add_ports)
+    return _Rig(own, mount, place, body=rigid, add_ports=add_ports, vehicle=vehicle)
+
+
+def body_vehicle(vehicle: Vehicle, body: RigidBody) -> Vehicle:
+    """`vehicle` (its rotors and size) with `body`'s own mass and principal
+    moments of inertia about its centre of mass (the diagonal of its
+    rotational inertia in its frame: the rotors' frame); `vehicle` itself
+    where they agree to 1e-9 (Drake stores a body's inertia per unit
+    mass, so a model written from the record reads back within ulps). Raises
+    BuilderError where the body's mass leaves too little thrust."""
+    inertia = body.default_spatial_inertia()
+    central = inertia.Shift(inertia.get_com()).CalcRotationalInertia()
+    moments = central.CopyToFullMatrix3().diagonal()
+    same = np.allclose(
+        [body.default_mass(), *moments],
+        [vehicle.mass, *vehicle.inertia],
+        rtol=1e-9,
+        atol=0,
+    )
+    if same:  # the vehicle's own model: its record's numbers, not Drake's rounding
+        return vehicle
+    try:
+        return as_vehicle(
+            replace(
+                vehicle,
+                mass=body.default_mass(),
+                inertia=[float(m) for m in moments],
+            ),
+            f"body {body.name()!r}'s vehicle",
+        )
+    except VehicleError as e:
+        raise BuilderError(str(e)) from None
+
+
+def add_rotor_path(
+    builder: DiagramBuilder, vehicle: Vehicle, rotors: InputPort, to_plus: bool
+) -> InputPort:
+    """The input that drives `rotors` (a plant's rotor commands) with the
+    vehicle's own commands: through its motors' first-order lag
+    (`systems.rotors.motor_lag`, where motor_time_constant > 0) and, for Drake's "+"
+    QuadrotorPlant (`to_plus`) flying an "x" vehicle, through the map to
+    the "+" commands of the same wrench (`quadcopter.plus_commands`).
+    `rotors` itself where neither applies."""
+    if to_plus and vehicle.layout != "+":
+        gain = builder.AddSystem(MatrixGain(plus_commands(vehicle)))
+        builder.Connect(gain.get_output_port(), rotors)
+        rotors = gain.get_input_port()
+    if vehicle.motor_time_constant > 0.0:
+        lag = builder.AddSystem(
+            motor_lag(vehicle.motor_time_constant, vehicle.hover_command)
+        )
+        builder.Connect(lag.get_output_port(), rotors)
+        rotors = lag.get_input_port()
+    return rotors
 
 
 def _floating_body(plant: MultibodyPlant, body) -> RigidBody:

@@ -21,7 +21,7 @@ from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSi
 
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Cameras, Scenario, Sensor, SphereSensor
-from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.methods import Method, mfi_navigator, resolve_method
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE, slices
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
@@ -91,7 +91,7 @@ def add_sensor(
     scene_graph: SceneGraph,
     state_port: OutputPort,
     *,
-    vehicle: str = "drake_default",
+    vehicle: "str | Vehicle" = "drake_default",
     other_vehicles: int = 0,
     moving: bool = False,
     ignore=(),
@@ -121,7 +121,7 @@ def add_sensor(
 
     `map_points` (n, 3): a point-cloud map (`Scenario.map_points`), read
     by a `PointMapSensor` instead of `scene_graph`'s geometry."""
-    radius = VEHICLES[vehicle].collision_radius
+    radius = as_vehicle(vehicle).collision_radius
     mapped = map_points is not None and len(map_points) > 0
     if mapped and not isinstance(sensor, SphereSensor):
         raise TypeError(f"sensor = {sensor!r}: a point-cloud map has no surfaces")
@@ -131,8 +131,8 @@ def add_sensor(
                 "vehicle_geometry",
                 VehicleGeometry(
                     scene_graph,
-                    VEHICLES[vehicle].arm_length,
-                    VEHICLES[vehicle].rotor_radius,
+                    as_vehicle(vehicle).arm_length,
+                    as_vehicle(vehicle).rotor_radius,
                 ),
             )
             builder.Connect(state_port, geometry.get_input_port(0))
@@ -222,7 +222,7 @@ def add_controller(
     whether obstacles move (a dynamic scene, `navigator_of`). A navigator
     with the input "scene" (mfi-nc in a fleet) reads the sensor's "scene"."""
     method = resolve_method(method)
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     navigator = builder.AddNamedSystem(
         "navigator", navigator_of(scenario, method, vehicle, moving)
     )

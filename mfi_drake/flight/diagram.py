@@ -34,7 +34,7 @@ from pydrake.systems.primitives import VectorLogSink
 
 from mfi_drake.config.dynamic import OtherVehicle
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.builder import NavigationHandles, add_scenario_navigation
 from mfi_drake.flight.chain import LOG_LAYOUT, log_slices
 from mfi_drake.flight.methods import Method, resolve_method
@@ -91,7 +91,7 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
 
     scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
     add_obstacles(builder, scene_graph, scenario)
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     plant = builder.AddNamedSystem("quadrotor", make_plant(vehicle))
     # A loaded scenario's goals are checked with a margin (`world.validation`);
     # a diagram is still built at any goal, to evaluate its outputs there.

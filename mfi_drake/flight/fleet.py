@@ -41,7 +41,9 @@ from pydrake.systems.primitives import (
 from mfi_drake.config.dynamic import RelativeVelocity
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicle_gains import for_vehicle
+from mfi_drake.config.vehicles import as_vehicle
+from mfi_drake.flight.builder import add_rotor_path
 from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths import baselines, compiled, fields, fleet
@@ -179,7 +181,7 @@ def on_compiled(scenario: Scenario, methods: list) -> Scenario | None:
 def method_systems(scenario: Scenario, method: Method) -> tuple:
     """(navigator, goal attraction): `method`'s systems for `scenario`,
     whose parameters the compiled chain copies."""
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     return method.navigator(scenario, vehicle), method.goal_attraction(
         scenario, vehicle
     )
@@ -256,7 +258,7 @@ class OneIntegratorFleet:
         check_engine(scenario, [method])
         method = resolve_method(method)
         self.scenario, self.method = scenario, method.name
-        self.vehicle = VEHICLES[scenario.vehicle]
+        self.vehicle = as_vehicle(scenario.vehicle)
         self.flown = vehicle_scenarios(scenario)
         n = len(self.flown)
         builder = DiagramBuilder()
@@ -289,8 +291,10 @@ class OneIntegratorFleet:
                 [s.goal for s in self.flown],
                 fields.obstacle_field if user else field_of(navigator),
                 attract,
-                scenario.navigator if user else navigator.params,
-                scenario.navigator,
+                for_vehicle(scenario.navigator, self.vehicle)
+                if user
+                else navigator.params,
+                for_vehicle(scenario.navigator, self.vehicle),
                 self.vehicle,
                 scenario.sensor.radius,
                 estimate.keep_right,
@@ -339,7 +343,10 @@ class OneIntegratorFleet:
             rotors.get_input_port(0),
         )
         for k, plant in enumerate(self.plants):
-            builder.Connect(rotors.get_output_port(k), plant.get_input_port(0))
+            builder.Connect(
+                rotors.get_output_port(k),
+                add_rotor_path(builder, self.vehicle, plant.get_input_port(0), True),
+            )
         rows = chain.GetOutputPort("rows")
         if estimate_faulted(faults) or (scene and readings_faulted(faults)):
             truth = builder.AddNamedSystem("true_rows", TrueRows(scene))

@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mfi_drake.config.scenario import Scenario, SphereSensor
+from mfi_drake.config.vehicle_gains import for_vehicle
 from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.navigation import (
@@ -86,6 +87,13 @@ def _goal(scenario: Scenario) -> np.ndarray:
     return np.asarray(scenario.goal, float)
 
 
+def gains(scenario: Scenario, key: str, vehicle: Vehicle):
+    """The scenario's parameters `key` ("navigator", "apf", ...) for
+    `vehicle` (`config.vehicle_gains`: as given for the shipped presets),
+    on the time scale of its attitude loop (`navigator`'s)."""
+    return for_vehicle(getattr(scenario, key), vehicle, scenario.navigator)
+
+
 METHODS: dict[str, Method] = {
     "mfi": Method(
         name="mfi",
@@ -93,7 +101,7 @@ METHODS: dict[str, Method] = {
         colour="tab:blue",
         navigator=lambda s, vehicle: mfi_navigator(s, vehicle),
         goal_attraction=lambda s, vehicle: GoalAttractionSelector(
-            s.navigator, _goal(s), mass=vehicle.mass
+            gains(s, "navigator", vehicle), _goal(s), mass=vehicle.mass
         ),
         parameters="navigator",
         gains=_mfi_gains("navigator"),
@@ -103,10 +111,10 @@ METHODS: dict[str, Method] = {
         label="MFI (paper)",
         colour="tab:cyan",
         navigator=lambda s, vehicle: MfiNavigator(
-            s.mfi_paper, _goal(s), vehicle.collision_radius
+            gains(s, "mfi_paper", vehicle), _goal(s), vehicle.collision_radius
         ),
         goal_attraction=lambda s, vehicle: GoalAttractionSelector(
-            s.mfi_paper, _goal(s), mass=vehicle.mass
+            gains(s, "mfi_paper", vehicle), _goal(s), mass=vehicle.mass
         ),
         parameters="mfi_paper",
         gains=_mfi_gains("mfi_paper"),
@@ -116,10 +124,10 @@ METHODS: dict[str, Method] = {
         label="APF",
         colour="tab:red",
         navigator=lambda s, vehicle: ApfNavigator(
-            s.apf, _goal(s), vehicle.collision_radius
+            gains(s, "apf", vehicle), _goal(s), vehicle.collision_radius
         ),
-        goal_attraction=lambda s, _: PotentialGoalAttraction(
-            s.apf.attraction, _goal(s)
+        goal_attraction=lambda s, vehicle: PotentialGoalAttraction(
+            gains(s, "apf", vehicle).attraction, _goal(s)
         ),
         parameters="apf",
         # Khatib's η and ρ₀, and the attraction's stiffness (v_max stays 1 m/s).
@@ -134,9 +142,11 @@ METHODS: dict[str, Method] = {
         label="GF",
         colour="tab:green",
         navigator=lambda s, vehicle: GfNavigator(
-            s.gf, _goal(s), vehicle.collision_radius
+            gains(s, "gf", vehicle), _goal(s), vehicle.collision_radius
         ),
-        goal_attraction=lambda s, _: PotentialGoalAttraction(s.gf.attraction, _goal(s)),
+        goal_attraction=lambda s, vehicle: PotentialGoalAttraction(
+            gains(s, "gf", vehicle).attraction, _goal(s)
+        ),
         parameters="gf",
         # The gyroscopic gain and shell, the repulsion inside its safety shell
         # (ρ₀ < r_d), and the attraction's stiffness (v_max stays 1 m/s). k_g
@@ -154,7 +164,9 @@ METHODS: dict[str, Method] = {
 
 def mfi_navigator(s: Scenario, vehicle: Vehicle) -> "MfiNavigator":
     """MFI's memoryless navigator, eq 11–15 at the scenario's `navigator` gains."""
-    return MfiNavigator(s.navigator, _goal(s), vehicle.collision_radius)
+    return MfiNavigator(
+        gains(s, "navigator", vehicle), _goal(s), vehicle.collision_radius
+    )
 
 
 def escape_off(s: Scenario) -> str | None:
@@ -189,11 +201,11 @@ def _escape_navigator(
         return mfi_navigator(s, vehicle)
     fleet = bool(s.other_vehicles)
     return EscapeNavigator(
-        s.navigator,
+        gains(s, "navigator", vehicle),
         _goal(s),
         vehicle.collision_radius,
         vehicle.mass,
-        s.escape,
+        gains(s, "escape", vehicle),
         None if s.ground is None else s.ground.height,
         scene=fleet,
         relative=s.relative_velocity if fleet and s.relative_velocity.enabled else None,

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.maths.layout import POSITION
 from mfi_drake.world.obstacles import obstacle_distances
 
@@ -139,7 +140,7 @@ def flight_metrics(flight: Flight) -> dict:
         "scenario": scenario.name,
         "method": flight.method,
         "sensor": flight.sensor,
-        "vehicle": scenario.vehicle,
+        "vehicle": as_vehicle(scenario.vehicle).name,
         "reached": reached,
         "collided": collided,
         "success": reached and not collided,  # = outcome(...) == "success"

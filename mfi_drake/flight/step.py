@@ -36,7 +36,7 @@ import numpy as np
 
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import Scenario, SphereSensor, check_scenario
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths.layout import STATE_SIZE, point_readings, position_velocity
 from mfi_drake.systems.control import AttitudePD, RotorMixer
@@ -74,8 +74,9 @@ class NavigationStep:
 
     `goal`: [x, y, z] [m]; `method`: a name of `METHODS`, "MODULE:NAME" of a
     user's field or the field function (as `simulate` takes it); `vehicle`:
-    a name of `VEHICLES`; `navigator`: overrides of the scenario's
-    `navigator` parameters (a `NavigatorParams`, or a dict of its fields),
+    a preset's name or a `Vehicle` (`config.vehicles.as_vehicle`);
+    `navigator`: overrides of the scenario's `navigator` parameters (a
+    `NavigatorParams`, or a dict of its fields),
     which hold MFI's gains and the attitude PD's of every method;
     `sensor_radius`: r_s [m], the sphere sensor's (default
     `SphereSensor().radius`). For every other parameter (the baselines'
@@ -87,7 +88,7 @@ class NavigationStep:
         self,
         goal,
         method: "str | Callable | Method" = "mfi",
-        vehicle: str = "drake_default",
+        vehicle: "str | Vehicle" = "drake_default",
         navigator: "NavigatorParams | dict | None" = None,
         sensor_radius: float | None = None,
     ):
@@ -126,7 +127,7 @@ class NavigationStep:
         self.scenario = scenario
         self.goal = np.array(scenario.goal, float)
         self.sensor_radius = float(scenario.sensor.radius)
-        vehicle = VEHICLES[scenario.vehicle]
+        vehicle = as_vehicle(scenario.vehicle)
         self._chain = [
             self.method.navigator(scenario, vehicle),
             self.method.goal_attraction(scenario, vehicle),

@@ -8,6 +8,7 @@ thrust toward +x, +roll toward −y.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING
 
@@ -223,17 +224,43 @@ def attitude_pd_torque(
     )
 
 
+def rotor_angles(layout: str) -> np.ndarray:
+    """Rotor k's direction in the body's xy plane [rad]: "+" (Drake's
+    QuadrotorPlant, `layout` module) at 0, 90°, 180°, 270° from +x; "x" at
+    45°, 135°, 225°, 315°. Rotors 0 and 2 twist +z, 1 and 3 −z in both."""
+    offset = 0.25 * math.pi if layout == "x" else 0.0
+    return offset + np.arange(ROTORS) * (0.5 * math.pi)
+
+
+def rotor_xy(arm_length: float, layout: str = "+") -> np.ndarray:
+    """Rotor k's centre (x, y) in the body frame (4 × 2) [m]; the "+"
+    layout's entries are exactly ±L and 0."""
+    angles = rotor_angles(layout)
+    c, s = np.cos(angles), np.sin(angles)
+    if layout != "x":
+        c, s = np.round(c), np.round(s)
+    return arm_length * np.column_stack([c, s]) + 0.0
+
+
 def mixer_matrix(vehicle: Vehicle) -> np.ndarray:
-    """D of eq 8 for Drake's rotor layout: [T, τx, τy, τz] = D u."""
-    kF, kM, L = vehicle.kF, vehicle.kM, vehicle.arm_length
-    return np.array(
-        [
-            [kF, kF, kF, kF],
-            [0.0, L * kF, 0.0, -L * kF],
-            [-L * kF, 0.0, L * kF, 0.0],
-            [kM, -kM, kM, -kM],
-        ]
+    """D of eq 8 for the vehicle's rotor layout: [T, τx, τy, τz] = D u, with
+    rotor k at (x_k, y_k) pushing kF u_k along +z (τx = kF u y, τy = −kF u x)
+    and twisting ±kM u_k about it."""
+    kF, kM = vehicle.kF, vehicle.kM
+    xy = rotor_xy(vehicle.arm_length, vehicle.layout)
+    spin = np.array([1.0, -1.0, 1.0, -1.0])
+    return np.vstack(
+        [np.full(ROTORS, kF), kF * xy[:, 1], -(kF * xy[:, 0]) + 0.0, kM * spin]
     )
+
+
+def plus_commands(vehicle: Vehicle) -> np.ndarray:
+    """The 4 × 4 map from the vehicle's rotor commands to the commands of
+    QuadrotorPlant's "+" rotors that give the body the same thrust and
+    torques, D₊⁻¹ D (identity for a "+" vehicle): Drake's plant sums its
+    rotors into one wrench, so an "x" vehicle flies exactly through it."""
+    plus = dataclasses.replace(vehicle, layout="+")
+    return np.linalg.solve(mixer_matrix(plus), mixer_matrix(vehicle))
 
 
 def mix(thrust_torque: np.ndarray, D_inv, u_max: float):

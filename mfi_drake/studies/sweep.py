@@ -63,7 +63,7 @@ import numpy as np
 from mfi_drake.config.dynamic import moves
 from mfi_drake.config.scenario import DepthCamera, Scenario, SphereSensor
 from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.fleet import check_engine, on_compiled
 from mfi_drake.flight.methods import DEFAULT_METHODS, resolve_method
@@ -143,7 +143,7 @@ def field_reference(scenario_yaml: str) -> dict:
     start–goal length and the fraction of that line inside grown obstacles."""
     scenario = task_scenario(scenario_yaml)
     start, goal = np.asarray(scenario.start), np.asarray(scenario.goal)
-    radius = VEHICLES[scenario.vehicle].collision_radius
+    radius = as_vehicle(scenario.vehicle).collision_radius
     try:
         length = reference_path(scenario).length
     except ValueError:  # no path in the grid

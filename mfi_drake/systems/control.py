@@ -9,6 +9,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
 
+from mfi_drake.config.vehicle_gains import for_vehicle
 from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.maths.layout import (
     ROTORS,
@@ -46,8 +47,10 @@ def AttitudePD_(T):
         def _construct(self, vehicle, params, K_P=None, K_D=None, converter=None):
             LeafSystem_[T].__init__(self, converter)
             self.vehicle = vehicle
-            self.params = copy.deepcopy(params)
-            default_P, default_D = attitude_gains(vehicle, params)
+            # As given (a copy scales them anew); for the vehicle, to fly.
+            self.given_params = copy.deepcopy(params)
+            self.params = for_vehicle(self.given_params, vehicle)
+            default_P, default_D = attitude_gains(vehicle, self.params)
             self.K_P = default_P if K_P is None else np.array(K_P, float)
             self.K_D = default_D if K_D is None else np.array(K_D, float)
             self._last = LastResult(enabled=T is float)
@@ -71,7 +74,7 @@ def AttitudePD_(T):
             Impl._construct(
                 self,
                 other.vehicle,
-                other.params,
+                other.given_params,
                 other.K_P,
                 other.K_D,
                 converter=converter,

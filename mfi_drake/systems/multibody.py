@@ -34,20 +34,26 @@ from pydrake.multibody.plant import MultibodyPlant, Propeller, PropellerInfo
 from pydrake.multibody.tree import BodyIndex, RigidBody
 from pydrake.systems.framework import Context, DiagramBuilder, LeafSystem
 
-from mfi_drake.config.vehicle_model import ROTOR_SPIN, rotor_positions
-from mfi_drake.config.vehicles import VEHICLES, Vehicle, vehicle_model_path
+from mfi_drake.config.vehicle_model import ROTOR_SPIN, rotor_positions, vehicle_sdf
+from mfi_drake.config.vehicles import Vehicle, as_vehicle, vehicle_model_path
 from mfi_drake.maths.layout import STATE_SIZE
 
 
 def add_vehicle_model(
     plant: MultibodyPlant,
-    vehicle: str = "drake_default",
+    vehicle: str | Vehicle = "drake_default",
     model_name: str | None = None,
 ) -> RigidBody:
-    """Parses the shipped model of `vehicle` into the unfinalized `plant`
-    and returns its free body "body". `model_name` names the model instance
-    (default: the vehicle's name), so that several vehicles can coexist."""
-    (instance,) = Parser(plant).AddModels(vehicle_model_path(vehicle))
+    """Parses the shipped model of `vehicle` (a preset's name), or the model
+    `config.vehicle_model.vehicle_sdf` writes of a `Vehicle`, into the
+    unfinalized `plant` and returns its free body "body". `model_name`
+    names the model instance (default: the vehicle's name), so that several
+    vehicles can coexist."""
+    if isinstance(vehicle, str):
+        (instance,) = Parser(plant).AddModels(vehicle_model_path(vehicle))
+    else:
+        text = vehicle_sdf(as_vehicle(vehicle))
+        (instance,) = Parser(plant).AddModelsFromString(text, "sdf")
     if model_name is not None:
         plant.RenameModelInstance(instance, model_name)
     return plant.GetBodyByName("body", instance)
@@ -141,9 +147,7 @@ def add_propellers(
     `get_command_input_port()` takes QuadrotorPlant's input, the four rotor
     commands u. The plant's applied-spatial-force input takes one source,
     so this serves one vehicle per plant."""
-    if isinstance(vehicle, str):
-        vehicle_model_path(vehicle)  # a clear error for an unknown name
-        vehicle = VEHICLES[vehicle]
+    vehicle = as_vehicle(vehicle)  # a clear error for an unknown name
     forces = plant.get_applied_spatial_force_input_port()
     if builder.IsConnectedOrExported(forces):
         raise ValueError(
@@ -158,7 +162,7 @@ def add_propellers(
             spin * vehicle.kM,
         )
         for position, spin in zip(
-            rotor_positions(vehicle.arm_length), ROTOR_SPIN, strict=True
+            rotor_positions(vehicle.arm_length, vehicle.layout), ROTOR_SPIN, strict=True
         )
     ]
     propeller = builder.AddNamedSystem(

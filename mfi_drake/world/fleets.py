@@ -11,7 +11,7 @@ import numpy as np
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import OtherVehicle
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.world import generator
 from mfi_drake.world.obstacles import obstacle_distances
 
@@ -91,7 +91,7 @@ def random_pairs(
     start (goal) drawn before and clear of the obstacles by the vehicle's
     collision radius plus the workspace's clearance."""
     workspace = generator.DEFAULT_WORKSPACE
-    needed = VEHICLES[field.vehicle].collision_radius + workspace.clearance
+    needed = as_vehicle(field.vehicle).collision_radius + workspace.clearance
     w, h = workspace.half_width, workspace.height
     rng = np.random.default_rng([seed, index, FLEET_STREAM])
     starts, goals = [], []

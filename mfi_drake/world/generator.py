@@ -52,7 +52,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Motion
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.files import write_text
 from mfi_drake.world.obstacles import obstacle_distances
 from mfi_drake.world.shapes import SHAPES, convex_points, mesh_file
@@ -148,7 +148,7 @@ def random_field(
         raise ValueError(f"density = {density!r}: must be a finite number ≥ 0")
     name = field_name(seed, index, density)
     scenario = _field(name, workspace, vehicle, sensor, duration)
-    needed = VEHICLES[vehicle].collision_radius + workspace.clearance
+    needed = as_vehicle(vehicle).collision_radius + workspace.clearance
     low, high = workspace.box
     rng = np.random.default_rng([seed, index])
     for _ in range(workspace.obstacle_count(density)):
@@ -306,7 +306,7 @@ def set_in_motion(
     obstacle count) of its obstacles circling at `speed` m/s (see the module
     docstring); fewer where too few have room to move."""
     rng = np.random.default_rng([seed, index, MOTION_STREAM])
-    needed = VEHICLES[scenario.vehicle].collision_radius + workspace.clearance
+    needed = as_vehicle(scenario.vehicle).collision_radius + workspace.clearance
     obstacles = list(scenario.obstacles)
     wanted = round(share * len(obstacles))
     for k in rng.permutation(len(obstacles)):

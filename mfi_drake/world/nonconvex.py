@@ -38,7 +38,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.world.generator import random_rpy_deg
 from mfi_drake.world.obstacles import obstacle_distances
 
@@ -359,7 +359,7 @@ def sealed_room(seed: int, index: int, vehicle: str = "drake_default") -> sc.Sce
 def _first_clear(name, rng, draw, vehicle, sensor, duration) -> sc.Scenario:
     """The first world of `draw(rng)` whose start and goal have the
     vehicle's collision radius plus CLEARANCE of room."""
-    needed = VEHICLES[vehicle].collision_radius + CLEARANCE
+    needed = as_vehicle(vehicle).collision_radius + CLEARANCE
     while True:
         obstacles, on_ground, goal = draw(rng)
         height = GROUND_HEIGHT if on_ground else FREE_HEIGHT

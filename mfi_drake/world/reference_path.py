@@ -41,7 +41,7 @@ import numpy as np
 from pydrake.geometry import SceneGraph
 
 from mfi_drake.config import scenario as sc
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.world.obstacles import register_obstacles
 from mfi_drake.world.shapes import bounding_radius
 
@@ -257,7 +257,7 @@ def tighten(
 def reference_path(scenario: sc.Scenario, cell: float = 0.1) -> ReferencePath:
     """The shortest collision-free path of the vehicle's centre (steps 1–3 of
     the module docstring). Raises ValueError if the grid has no path."""
-    radius = VEHICLES[scenario.vehicle].collision_radius
+    radius = as_vehicle(scenario.vehicle).collision_radius
     clearance = Clearance(scenario, radius)
     start = np.asarray(scenario.start, float)
     goal = np.asarray(scenario.goal, float)

@@ -17,7 +17,7 @@ import numpy as np
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
 from mfi_drake.config.scenario_yaml import layered_name, parse_scenario
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.config.worlds import ScenarioWarning
 from mfi_drake.world.meshes import enclosed_volume, read_obj
 from mfi_drake.world.obstacles import closest_obstacles, obstacle_distances
@@ -37,7 +37,7 @@ ROUNDING = 1e-9
 def least_goal_gap(vehicle: str = "drake_default") -> float:
     """The least distance [m] from a goal to a surface that the loader accepts
     for `vehicle`: its collision radius plus GOAL_MARGIN."""
-    return VEHICLES[vehicle].collision_radius + GOAL_MARGIN
+    return as_vehicle(vehicle).collision_radius + GOAL_MARGIN
 
 
 GOAL_SAMPLES = 200  # times over the flight at which a moving obstacle is judged
@@ -105,7 +105,7 @@ def validate_scenario(scenario: sc.Scenario, where: str) -> None:
     for i, obstacle in enumerate(scenario.obstacles):
         if isinstance(obstacle.shape, sc.Convex):
             _check_mesh(f"{where}: obstacles[{i}]", scenario, obstacle.shape)
-    radius = VEHICLES[scenario.vehicle].collision_radius
+    radius = as_vehicle(scenario.vehicle).collision_radius
     ends = [("start", scenario.start), ("goal", scenario.goal)]
     for i, other in enumerate(scenario.other_vehicles):
         ends += [

@@ -11,7 +11,8 @@ from pydrake.systems.primitives import LinearSystem, LogVectorOutput, Trajectory
 from pydrake.trajectories import PiecewisePolynomial
 
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.config.vehicle_gains import for_vehicle
+from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.analysis_diagram import build_analysis_diagram, hover_state
 from mfi_drake.flight.result import Flight
 from mfi_drake.maths import fields
@@ -93,10 +94,17 @@ def logged_terms(flight: Flight) -> dict[str, np.ndarray]:
     }
 
 
+def flown_params(flight: Flight):
+    """The navigator parameters `flight`'s vehicle flew: the scenario's, for
+    its vehicle (`config.vehicle_gains`)."""
+    scenario = flight.scenario
+    return for_vehicle(scenario.navigator, as_vehicle(scenario.vehicle))
+
+
 def recomputed_zero_work_terms(flight: Flight, vehicle: Vehicle) -> dict:
     """F, F_a (eq 11–15) and F_gc (eq 16–18) recomputed by `fields` at every
     logged state from the logged obstacle signal and mode."""
-    scenario, params = flight.scenario, flight.scenario.navigator
+    scenario, params = flight.scenario, flown_params(flight)
     goal = np.asarray(scenario.goal, float)
     x, obstacle = flight.log["state"], flight.log["obstacle"]
     cruise = flight.log["mode"][:, 0] == fields.MODE_CRUISE
@@ -127,8 +135,8 @@ def cruise_report(flight: Flight, attitude_K=None) -> dict:
     realised terms is checked against the force the vehicle actually
     applied (`realised_force`); (applied − F_n)·v is the model-free lag power.
     """
-    scenario, params = flight.scenario, flight.scenario.navigator
-    vehicle = VEHICLES[scenario.vehicle]
+    scenario, params = flight.scenario, flown_params(flight)
+    vehicle = as_vehicle(scenario.vehicle)
     t, x = flight.times, flight.log["state"]
     v = x[:, 6:9]
     goal = np.asarray(scenario.goal, float)
@@ -235,7 +243,7 @@ def heading_window_report(
     the measured β against the point-mass closed form
     β0 exp(−K_ω t / m) (far goal) and the point mass flown from the same
     state toward the real goal."""
-    params = flight.scenario.navigator
+    params = flown_params(flight)
     obstacle_free = np.all(flight.log["obstacle_force_terms"] == 0.0, axis=1)
     edges = np.diff(np.concatenate([[0], (cruise & obstacle_free).astype(int), [0]]))
     runs = list(zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0], strict=True))
@@ -277,15 +285,15 @@ def far_goal_heading(scenario: Scenario, duration: float = 3.0) -> dict:
     (`attitude_response`); with that lag the linearised heading loop is
     s³ + b s² + a s + a K_Pv K_ω/m = 0, whose slowest root is the
     "lagged_model_rate" to compare with the vehicle's asymptotic rate."""
-    params = scenario.navigator
     start = np.asarray(scenario.start, float)
     far = dataclasses.replace(scenario, goal=list(start + [1000.0, 0.0, 0.0]))
     analysis = build_analysis_diagram(far, fields.MODE_CRUISE)
+    params = analysis.params  # the vehicle's (`config.vehicle_gains`)
     simulator = Simulator(analysis.diagram)
     context = simulator.get_mutable_context()
     x0 = hover_state(start)
     x0[7] = params.v_d
-    context.SetContinuousState(x0)
+    context.SetContinuousState(analysis.state(x0))
     times = np.linspace(0.0, duration, 301)
     states = []
     for t in times:

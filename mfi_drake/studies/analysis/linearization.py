@@ -10,7 +10,8 @@ from pydrake.systems.framework import Diagram
 from pydrake.systems.primitives import Linearize
 
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES, Vehicle
+from mfi_drake.config.vehicle_gains import for_vehicle
+from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.analysis_diagram import (
     AnalysisDiagram,
     build_analysis_diagram,
@@ -29,9 +30,11 @@ SWEPT_GAINS = ("K_P", "K_D", "K_Ptheta", "K_Dtheta")
 
 
 def linearize_closed_loop(analysis: AnalysisDiagram, x0: np.ndarray) -> np.ndarray:
-    """A of the closed loop at x0 by Drake's `Linearize` (AutoDiffXd)."""
+    """A of the closed loop at x0 by Drake's `Linearize` (AutoDiffXd). x0:
+    the whole continuous state, or the plant's 12-state (`analysis.state`:
+    the motors' lag, where the vehicle has one, at hover)."""
     context = analysis.diagram.CreateDefaultContext()
-    context.SetContinuousState(x0)
+    context.SetContinuousState(analysis.state(x0))
     # Norms of zero vectors (v at hover, the tilt command) have infinite
     # derivatives; they are only compared, never used, so their floating-
     # point flags are not warnings here.
@@ -121,8 +124,8 @@ def with_gains(scenario: Scenario, factors: dict[str, float]) -> tuple:
     """(scenario, attitude_K) with each gain of SWEPT_GAINS scaled by its
     factor in `factors` (default 1)."""
     params = scenario.navigator
-    vehicle = VEHICLES[scenario.vehicle]
-    K_Ptheta, K_Dtheta = attitude_gains(vehicle, params)
+    vehicle = as_vehicle(scenario.vehicle)
+    K_Ptheta, K_Dtheta = attitude_gains(vehicle, for_vehicle(params, vehicle))
     scaled = dataclasses.replace(
         params,
         K_P=params.K_P * factors.get("K_P", 1.0),
@@ -175,7 +178,10 @@ def stability_boundaries(
 
 def default_gain_values(scenario: Scenario) -> dict[str, float]:
     """The defaults of SWEPT_GAINS (attitude gains of the roll axis)."""
-    K_Ptheta, K_Dtheta = attitude_gains(VEHICLES[scenario.vehicle], scenario.navigator)
+    vehicle = as_vehicle(scenario.vehicle)
+    K_Ptheta, K_Dtheta = attitude_gains(
+        vehicle, for_vehicle(scenario.navigator, vehicle)
+    )
     return {
         "K_P": scenario.navigator.K_P,
         "K_D": scenario.navigator.K_D,

@@ -7,7 +7,8 @@ import time
 import numpy as np
 
 from mfi_drake.config.scenario import Scenario, ScenarioError
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicle_gains import for_vehicle
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.flight.analysis_diagram import (
     build_analysis_diagram,
     hover_state,
@@ -44,7 +45,7 @@ def run_analysis(
             "the diagram of systems (engine: systems)"
         )
     begin = time.perf_counter()
-    vehicle = VEHICLES[scenario.vehicle]
+    vehicle = as_vehicle(scenario.vehicle)
     report = {"scenario": scenario.name, "vehicle": vehicle.name}
 
     plant = plant_report(vehicle)
@@ -52,7 +53,7 @@ def run_analysis(
     report["controllability_rank"] = plant["controllability_rank"]
 
     analysis = build_analysis_diagram(scenario, fields.MODE_PD)
-    x0 = hover_state(analysis.goal)
+    x0 = analysis.state(hover_state(analysis.goal))
     A = linearize_closed_loop(analysis, x0)
     A_fd = finite_difference_jacobian(analysis.diagram, x0)
     eigenvalues = np.linalg.eigvals(A)
@@ -114,7 +115,7 @@ def run_analysis(
         "eigenvalues": eigenvalues,
         "gain_sweep": sweep,
         "power": cruise["series"],
-        "v_d": scenario.navigator.v_d,
+        "v_d": for_vehicle(scenario.navigator, vehicle).v_d,
         "heading_window": window_series,
         "far_goal_heading": far_series,
         "heading_rate": far["closed_form_rate"],

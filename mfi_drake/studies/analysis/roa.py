@@ -16,7 +16,8 @@ from pydrake.systems.framework import EventStatus
 from pydrake.systems.primitives import SymbolicVectorSystem
 
 from mfi_drake.config.scenario import Scenario
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicle_gains import for_vehicle
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.flight.analysis_diagram import (
     AnalysisDiagram,
     build_analysis_diagram,
@@ -31,8 +32,8 @@ from mfi_drake.maths.reduced_models import reduced_terminal_dynamics, rk4_step
 def reduced_model_constants(scenario: Scenario) -> dict:
     """The constants of `reduced_terminal_dynamics` for `scenario`: a, b of
     eq 25 on the pitch axis (it drives x)."""
-    vehicle = VEHICLES[scenario.vehicle]
-    params = scenario.navigator
+    vehicle = as_vehicle(scenario.vehicle)
+    params = for_vehicle(scenario.navigator, vehicle)
     K_Ptheta, K_Dtheta = attitude_gains(vehicle, params)
     J = np.asarray(vehicle.inertia)
     return {
@@ -86,7 +87,7 @@ def roa_sos(scenario: Scenario) -> dict:
     ω_n), time in units of 1/√(ω_p ω_n), ω_p = √(K_P/m), ω_n = √a.
     """
     c = reduced_model_constants(scenario)
-    params = scenario.navigator
+    params = for_vehicle(scenario.navigator, as_vehicle(scenario.vehicle))
     variables = [Variable(n) for n in ("e", "v", "theta", "omega")]
     metres_per_rad = c["m"] * GRAVITY / (c["K_Pv"] * c["K_P"])
     omega_n = np.sqrt(c["a"])
@@ -197,7 +198,7 @@ def converges_from(
     x0 = hover_state(goal)
     x0[0:3] += offset[0:3]
     x0[6:9] += offset[3:6]
-    context.SetContinuousState(x0)
+    context.SetContinuousState(analysis.state(x0))
     outcome = {}
 
     def monitor(root_context):
