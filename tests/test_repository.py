@@ -53,7 +53,10 @@ MAX_DOC_LINES = 400  # a docs page is a reference, not a diary
 
 
 def test_the_readme_and_every_docs_page_stay_short(tracked):
-    pages = {p: MAX_DOC_LINES for p in tracked if p.endswith(".md")}
+    # The CHANGELOG is the one diary: it grows by a section a release.
+    pages = {
+        p: MAX_DOC_LINES for p in tracked if p.endswith(".md") and p != "CHANGELOG.md"
+    }
     pages["README.md"] = MAX_README_LINES
     long = {}
     for page, limit in pages.items():
