@@ -139,7 +139,9 @@ class EscapeParams:
     finite and > 0."""
 
     stall_time: float = 15.0  # s without progress: trapped at a surface
-    progress: float = 0.5  # m, the least gain in d_best that is progress
+    # m, the least gain in d_best that is progress; within it of the goal,
+    # where no such gain is left, the goal is held (no trap, no traversal).
+    progress: float = 0.5
     follow_distance: float = 0.45  # m, r_f: the clearance hugged while following
     hug: float = 1.0  # 1/m, κ: how hard the subgoal pulls toward r_f
     lookahead: float = 3.0  # m, the subgoal's distance ahead
