@@ -13,7 +13,10 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
 
 - Trap detection: the best distance to the goal so far, d_best, has not
   fallen by `progress` for `stall_time` seconds (going round the same
-  surface makes no progress either).
+  surface makes no progress either). Being at the goal is progress: within
+  `progress` of it (where no such gain is left to make) the goal is held,
+  every phase returns to motion toward it and the clock restarts, so no
+  phase flies the vehicle off a goal it holds.
 - Traversal: the hit point H and d_hit = d_best are remembered; the vehicle
   circulates round the surface about a fixed axis a, as a current round
   the obstacle (the picture of MFI; Ataka et al., Front. Robot. AI 9, 2022,
@@ -136,7 +139,9 @@ class EscapeParams:
     finite and > 0."""
 
     stall_time: float = 15.0  # s without progress: trapped at a surface
-    progress: float = 0.5  # m, the least gain in d_best that is progress
+    # m, the least gain in d_best that is progress; within it of the goal,
+    # where no such gain is left, the goal is held (no trap, no traversal).
+    progress: float = 0.5
     follow_distance: float = 0.45  # m, r_f: the clearance hugged while following
     hug: float = 1.0  # 1/m, κ: how hard the subgoal pulls toward r_f
     lookahead: float = 3.0  # m, the subgoal's distance ahead
@@ -406,6 +411,13 @@ def update_memory(
     record_surfaces(memory, p, obstacle)
     r_g = goal - p
     d = float(_norm(r_g))
+    if d <= params.progress:
+        # Being at the goal is progress: within `progress` of it no gain of
+        # `progress` is left to make, so a stall there is the goal held, not
+        # a trap, and no phase may steer away from it (by default that is
+        # also where eq 21's PD zone has faded every obstacle term, r_gl/2).
+        memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
+        return memory
     if phase == TOWARD:
         if d < memory[D_BEST] - params.progress:
             memory[D_BEST], memory[T_BEST] = d, t

@@ -37,7 +37,8 @@ With `moving` > 0 a share of each field's obstacles circles at
 variant naming both, and each counts its moving obstacles.
 
 With `world` other than "random" the fields are the generated non-convex
-worlds (`world.nonconvex`, docs/nonconvex.md) instead: worlds 0..n−1 of
+worlds (`world.nonconvex`, docs/nonconvex.md; "clutter" and "floorplan",
+`world.benchmark_worlds`) instead: worlds 0..n−1 of
 each class (`world_kinds`), where density has no sense (the records'
 density is None, their `world` the class; a random field's record has no
 `world`), summed up by class rather than density. A trapped flight (the
@@ -79,13 +80,15 @@ from mfi_drake.studies.records import (
     record_key,
 )
 from mfi_drake.studies.stats import group_stats, summary_table
-from mfi_drake.world import generator, nonconvex
+from mfi_drake.world import benchmark_worlds, generator, nonconvex
 from mfi_drake.world.reference_path import Clearance, reference_path
 from mfi_drake.world.validation import validate_scenario
 
 SENSORS = {"sphere": SphereSensor, "depth": DepthCamera}
 NONCONVEX = "nonconvex"  # every class of nonconvex.KINDS
-WORLDS = (RANDOM, *nonconvex.KINDS, NONCONVEX)  # what a sweep can fly
+# What a sweep can fly: with the benchmarks' classes (BARN-like clutter in a
+# slab, indoor floor plans: `world.benchmark_worlds`).
+WORLDS = (RANDOM, *nonconvex.KINDS, NONCONVEX, *benchmark_worlds.KINDS)
 
 
 def world_kinds(world: str) -> tuple[str, ...]:
@@ -213,7 +216,9 @@ def summarize(config: SweepConfig, records: list[dict]) -> dict:
         "workspace": dataclasses.asdict(generator.DEFAULT_WORKSPACE),
         "duration": generator.DEFAULT_DURATION,
     }
-    if config.world != RANDOM:
+    if config.world in benchmark_worlds.KINDS:
+        where = {"duration": benchmark_worlds.DURATION}
+    elif config.world != RANDOM:
         where = {"duration": nonconvex.DURATION}
     return {
         "config": dataclasses.asdict(config),
@@ -383,6 +388,11 @@ def field_to_fly(
     mesh files)."""
     if key.world == RANDOM:
         scenario = tasks.make_field(config, key.density, key.index)
+    elif key.world in benchmark_worlds.KINDS:
+        sensor = SENSORS[config.sensor]()
+        scenario = benchmark_worlds.benchmark_world(
+            key.world, config.seed, key.index, sensor=sensor
+        )
     else:
         sensor = SENSORS[config.sensor]()
         scenario = nonconvex.nonconvex_world(
