@@ -48,7 +48,7 @@ from scipy import ndimage
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.scenario import ENGINES
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.files import write_text
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.world.generator import write_scenario
@@ -162,7 +162,7 @@ def main() -> None:
     parser.add_argument("--write-scenarios", action="store_true")
     args = parser.parse_args()
     methods = args.methods.split(",")
-    radius = VEHICLES["drake_default"].collision_radius
+    radius = as_vehicle("drake_default").collision_radius
     os.makedirs(args.out, exist_ok=True)
     records = []
     for index in args.worlds:

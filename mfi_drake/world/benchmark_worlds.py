@@ -32,7 +32,7 @@ import numpy as np
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground
-from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.world.nonconvex import CLEARANCE, THICKNESS, box, wall, world_name
 from mfi_drake.world.obstacles import obstacle_distances
 
@@ -187,7 +187,7 @@ def benchmark_world(
     if kind not in _DRAWS:
         raise ValueError(f"world = {kind!r}: must be one of {', '.join(KINDS)}")
     rng = np.random.default_rng([seed, index, BENCHMARK_STREAM, KINDS.index(kind)])
-    needed = VEHICLES[vehicle].collision_radius + CLEARANCE
+    needed = as_vehicle(vehicle).collision_radius + CLEARANCE
     if kind == "clutter":  # the slab's floor and ceiling are SLAB/2 away
         needed = min(needed, SLAB / 2)
     while True:
