@@ -9,6 +9,7 @@ printed (`-s`) for the docs."""
 
 import collections
 import os
+import resource
 import tempfile
 
 import numpy as np
@@ -130,3 +131,18 @@ def test_mutated_clouds_read_or_fail_in_one_line(workdir, case):
 @given(st.sampled_from([".pcd", ".ply"]), st.binary(max_size=2048))
 def test_random_bytes_as_a_cloud_fail_in_one_line(workdir, suffix, data):
     _cloud_or_one_line(_write(workdir, "random" + suffix, data))
+
+
+def test_a_chunk_longer_than_its_file_is_one_line_not_the_machines_memory(workdir):
+    """A GLB whose JSON chunk declares ~4 GB: the reader's memory is capped
+    by the file's size (`bounded_memory`), so the read fails in one line.
+    The fuzz found such a file, whose reading grew past 20 GB and was
+    killed by the kernel, taking the test run with it."""
+    with open(os.path.join(DATA, "box.glb"), "rb") as f:
+        data = bytearray(f.read())
+    assert data[16:20] == b"JSON"  # the first chunk's type; its length before
+    data[12:16] = (0xFFFFFFF0).to_bytes(4, "little")
+    before = resource.getrlimit(resource.RLIMIT_AS)
+    with pytest.raises(ValueError, match="declares more data than the file holds"):
+        read_mesh(_write(workdir, "long_chunk.glb", bytes(data)))
+    assert resource.getrlimit(resource.RLIMIT_AS) == before  # the cap is lifted

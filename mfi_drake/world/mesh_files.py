@@ -14,9 +14,11 @@ A file's node transforms (COLLADA, glTF scenes) are applied. Every failure
 is a ValueError of one line.
 """
 
+import contextlib
 import os
 import re
 import warnings
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -29,6 +31,46 @@ _TO_Z_UP = {
 }
 # How much of a COLLADA file is searched for its <asset>: it comes first.
 _ASSET_BYTES = 1 << 16
+# The memory a reader may take beyond the process's own: this much, and
+# this many bytes for each byte of the file. A header that declares more
+# than its file holds (a mutated count, a 4 GB chunk length) then fails as
+# a MemoryError, one line, instead of taking the machine's memory: the
+# loaders' fuzz found a GLB whose reading grew past 20 GB.
+READ_MEMORY_BASE = 1 << 30
+READ_BYTES_PER_FILE_BYTE = 256
+
+
+@contextlib.contextmanager
+def bounded_memory(path: str) -> Iterator[None]:
+    """Caps the process's address space, while a reader reads `path`, at
+    its present size plus what READ_MEMORY_BASE and READ_BYTES_PER_FILE_BYTE
+    allow (a lower limit already set stays). Where the process's size or
+    its limit cannot be read (not Linux), the reader runs unbounded."""
+    try:
+        import resource
+
+        soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+        with open("/proc/self/statm") as f:
+            used = int(f.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+    except (ImportError, OSError, ValueError):
+        yield
+        return
+    limit = used + READ_MEMORY_BASE + READ_BYTES_PER_FILE_BYTE * os.path.getsize(path)
+    for bound in (soft, hard):
+        if bound != resource.RLIM_INFINITY:
+            limit = min(limit, bound)
+    resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+
+
+def read_failure(e: Exception) -> str:
+    """The one line that says why a reader failed (readers raise many kinds)."""
+    if isinstance(e, MemoryError):
+        return "declares more data than the file holds (reading it ran out of memory)"
+    return str(e).splitlines()[0][:200] if str(e) else type(e).__name__
 
 
 def read_mesh(path: str) -> tuple[np.ndarray, np.ndarray]:
@@ -65,15 +107,14 @@ def _trimesh(path: str, suffix: str) -> tuple[np.ndarray, np.ndarray]:
     try:
         # trimesh's merge of equal vertices casts absurd coordinates (1e308)
         # with a RuntimeWarning; the checks after reading judge the values.
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), bounded_memory(path):
             warnings.simplefilter("ignore", RuntimeWarning)
             loaded = trimesh.load(path, file_type=suffix[1:], force="mesh")
         vertices = np.asarray(loaded.vertices, dtype=float)
         triangles = np.asarray(loaded.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as e:  # the readers raise many kinds; the user needs one line
-        reason = str(e).splitlines()[0][:200] if str(e) else type(e).__name__
         raise ValueError(
-            f"not readable as a {suffix[1:].upper()} mesh: {reason}"
+            f"not readable as a {suffix[1:].upper()} mesh: {read_failure(e)}"
         ) from None
     return vertices.reshape(-1, 3), triangles
 

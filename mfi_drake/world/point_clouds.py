@@ -19,6 +19,7 @@ import numpy as np
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.worlds import ScenarioWarning
 from mfi_drake.maths.point_maps import downsample
+from mfi_drake.world.mesh_files import bounded_memory, read_failure
 from mfi_drake.world.obstacles import obstacle_triangles
 
 
@@ -30,18 +31,18 @@ def read_cloud(path: str) -> tuple[np.ndarray, int]:
     if not os.path.isfile(path):
         raise ValueError(f"no such file ({path})")
     try:
-        if path.endswith(".ply"):
-            from plyfile import PlyData  # imported here: only a map pays
+        with bounded_memory(path):
+            if path.endswith(".ply"):
+                from plyfile import PlyData  # imported here: only a map pays
 
-            vertex = PlyData.read(path)["vertex"]
-            points = np.column_stack([vertex[k] for k in "xyz"])
-        else:
-            from pypcd4 import PointCloud
+                vertex = PlyData.read(path)["vertex"]
+                points = np.column_stack([vertex[k] for k in "xyz"])
+            else:
+                from pypcd4 import PointCloud
 
-            points = PointCloud.from_path(path).numpy(("x", "y", "z"))
+                points = PointCloud.from_path(path).numpy(("x", "y", "z"))
     except Exception as e:  # the readers raise many kinds; the user needs one line
-        reason = str(e).splitlines()[0] if str(e) else type(e).__name__
-        raise ValueError(f"not readable as a point cloud: {reason}") from None
+        raise ValueError(f"not readable as a point cloud: {read_failure(e)}") from None
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     if len(points) == 0:
         raise ValueError("holds no points")
