@@ -27,12 +27,32 @@ from mfi_drake.config import scenario as sc
 from mfi_drake.files import atomic_path
 from mfi_drake.world.mesh_files import read_mesh
 from mfi_drake.world.meshes import enclosed_volume
-from mfi_drake.world.surfaces import THICKNESS, closed, surface_slabs
+from mfi_drake.world.surfaces import THICKNESS, surface_slabs, welded
 
-# CoACD's parameters: its defaults (concavity threshold 0.05) with a fixed
-# seed, so that a mesh decomposes the same on every machine.
-COACD = {"threshold": 0.05, "seed": 0}
-CACHE_VERSION = 1  # bumped when what is cached changes
+# CoACD's parameters: its concavity threshold (0.05) with a fixed seed, so
+# that a mesh decomposes the same on every machine, and its search bounded so
+# that one mesh of a world costs seconds, not minutes (its defaults took
+# 35 s for one 6,000-triangle cabinet of the PyBullet kitchen; these 13 s):
+# at most 16 pieces, a shallower and smaller tree search, fewer samples.
+COACD = {
+    "threshold": 0.05,
+    "seed": 0,
+    "max_convex_hull": 16,
+    "resolution": 1000,
+    "mcts_nodes": 10,
+    "mcts_iterations": 30,
+    "mcts_max_depth": 2,
+}
+# An open mesh whose slabs would be more than this (a finely tessellated
+# curved surface: thousands) is closed by CoACD's voxel remeshing instead
+# and decomposed as a thin solid (the slab's accuracy is not worth a
+# scene of thousands of pieces).
+MAX_SLABS = 64
+OPEN_COACD = {**COACD, "preprocess_mode": "on", "preprocess_resolution": 30}
+# A closed mesh enclosing at least this share of its hull's volume flies as
+# its hull, one piece, without CoACD (a box, a cylinder, a tessellated ball).
+NEAR_CONVEX = 0.95
+CACHE_VERSION = 2  # bumped when what is cached changes
 
 
 def cache_dir() -> str:
@@ -62,12 +82,14 @@ def convex_pieces(vertices: np.ndarray, triangles: np.ndarray) -> list[np.ndarra
     return _cached(vertices, triangles, ["coacd", COACD], _coacd)
 
 
-def _coacd(vertices: np.ndarray, triangles: np.ndarray) -> list[np.ndarray]:
+def _coacd(
+    vertices: np.ndarray, triangles: np.ndarray, parameters: dict = COACD
+) -> list[np.ndarray]:
     import coacd  # imported here: only a scenario with a mesh pays for it
 
     coacd.set_log_level("error")
     try:
-        parts = coacd.run_coacd(coacd.Mesh(vertices, triangles), **COACD)
+        parts = coacd.run_coacd(coacd.Mesh(vertices, triangles), **parameters)
     except Exception as e:  # CoACD raises RuntimeError and others
         raise ValueError(f"cannot be decomposed ({e})") from None
     pieces = [np.asarray(v, float) for v, _ in parts if _solid(np.asarray(v))]
@@ -91,21 +113,57 @@ def _cached(vertices, triangles, method: list, compute) -> list[np.ndarray]:
     return pieces
 
 
+def _oriented(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray | None:
+    """The triangles of a watertight mesh (each edge in two of them) wound
+    consistently outwards; None for a mesh that is not watertight."""
+    import trimesh  # imported here: only a scenario with a mesh pays for it
+
+    mesh = trimesh.Trimesh(vertices, triangles, process=False)
+    if not mesh.is_watertight:
+        return None
+    trimesh.repair.fix_winding(mesh)
+    if mesh.volume < 0:
+        mesh.invert()
+    return np.asarray(mesh.faces, dtype=np.int64)
+
+
 def mesh_pieces(vertices: np.ndarray, triangles: np.ndarray, scale) -> list:
     """The vertices (K, 3) of each convex piece of the mesh scaled by `scale`
-    (a number or one per axis): CoACD's pieces of a closed mesh that
-    encloses a volume, else slabs over its surface (`surfaces`). Raises
-    ValueError, one line."""
+    (a number or one per axis), its equal corners welded: the hull of a
+    closed mesh that fills NEAR_CONVEX of it, CoACD's pieces of another
+    closed mesh, else slabs over its surface (`surfaces`; over MAX_SLABS
+    of them: CoACD's pieces of it remeshed closed). Raises ValueError,
+    one line."""
+    from scipy.spatial import ConvexHull, QhullError
+
     vertices = np.ascontiguousarray(vertices, dtype=float)
     triangles = np.ascontiguousarray(triangles, dtype=np.int64)
     scale = np.broadcast_to(np.asarray(scale, float), 3)
     if not len(triangles):
         raise ValueError("has no faces to decompose")
-    volume = abs(enclosed_volume(vertices, triangles))
-    if closed(triangles) and volume > 1e-9 * np.ptp(vertices) ** 3:
-        return [piece * scale for piece in convex_pieces(vertices, triangles)]
+    vertices, triangles = welded(vertices, triangles)
+    oriented = _oriented(vertices, triangles)
+    volume = 0.0 if oriented is None else enclosed_volume(vertices, oriented)
+    if volume > 1e-9 * np.ptp(vertices) ** 3:
+        try:
+            hull = ConvexHull(vertices)
+        except QhullError:
+            hull = None
+        if hull is not None and volume >= NEAR_CONVEX * hull.volume:
+            return [vertices[hull.vertices] * scale]
+        return [piece * scale for piece in convex_pieces(vertices, oriented)]
     scaled = np.ascontiguousarray(vertices * scale)
-    return _cached(scaled, triangles, ["slabs", THICKNESS], surface_slabs)
+    method = ["surface", THICKNESS, MAX_SLABS, OPEN_COACD]
+    return _cached(scaled, triangles, method, _surface_pieces)
+
+
+def _surface_pieces(vertices: np.ndarray, triangles: np.ndarray) -> list:
+    """Slabs over an open mesh's surface, or, over MAX_SLABS of them,
+    CoACD's pieces of it remeshed closed."""
+    slabs = surface_slabs(vertices, triangles, limit=MAX_SLABS)
+    if len(slabs) <= MAX_SLABS:
+        return slabs
+    return _coacd(vertices, triangles, OPEN_COACD)
 
 
 def mesh_obstacles(
@@ -139,6 +197,8 @@ def prefetch_pieces(meshes: list[tuple[str, object]]) -> None:
     a process a core, into the cache; one mesh or one core: nothing to
     share, `mesh_obstacles` decomposes it."""
     unique = list(dict.fromkeys((p, tuple(np.ravel(s).tolist())) for p, s in meshes))
+    # The largest files first, so that no core is left with one at the end.
+    unique.sort(key=lambda m: -os.path.getsize(m[0]) if os.path.isfile(m[0]) else 0)
     workers = min(len(unique), os.cpu_count() or 1)
     if workers < 2:
         return
