@@ -130,9 +130,10 @@ def test_many_meshes_fly_as_hulls_pieces_and_slabs(world, monkeypatch):
     )
 
 
-def test_a_convex_mesh_wound_any_way_is_its_hull():
+def test_a_convex_mesh_wound_any_way_is_its_hull(tmp_path, monkeypatch):
     """A tessellated cylinder, its triangles wound either way, is one
-    piece whose corners are its own, scaled."""
+    piece whose corners are its own, scaled, and nothing is cached."""
+    monkeypatch.setenv("MFI_DRAKE_CACHE", str(tmp_path / "cache"))
     angles = np.linspace(0, 2 * np.pi, 24, endpoint=False)
     ring = np.c_[np.cos(angles), np.sin(angles)]
     vertices = np.vstack([np.c_[ring, np.zeros(24)], np.c_[ring, np.ones(24)]])
@@ -143,4 +144,45 @@ def test_a_convex_mesh_wound_any_way_is_its_hull():
     (piece,) = decomposition.mesh_pieces(vertices, np.array(triangles), 2.0)
     np.testing.assert_allclose(
         np.sort(np.round(piece, 9), axis=0), np.sort(np.round(vertices * 2, 9), axis=0)
+    )
+    assert not (tmp_path / "cache").exists()
+
+
+def test_a_fine_curved_shell_flies_as_a_bounded_count_of_pieces(tmp_path, monkeypatch):
+    """A half-cylinder shell (radius 1 m, 2 m long) of 1,600 triangles, open,
+    whose slabs would be hundreds: MAX_SLABS pieces that hold every vertex
+    of it (distance ≤ 0) and leave its axis and the points 0.15 m off its
+    surface free (against the shell's closed form: r = 1)."""
+    monkeypatch.setenv("MFI_DRAKE_CACHE", str(tmp_path))
+    angles = np.linspace(0.0, np.pi, 41)
+    lengths = np.linspace(0.0, 2.0, 21)
+    grid = np.array([[np.cos(a), y, np.sin(a)] for y in lengths for a in angles])
+    n = len(angles)
+    triangles = [
+        t
+        for j in range(len(lengths) - 1)
+        for i in range(n - 1)
+        for t in (
+            [j * n + i, j * n + i + 1, (j + 1) * n + i + 1],
+            [j * n + i, (j + 1) * n + i + 1, (j + 1) * n + i],
+        )
+    ]
+    pieces = decomposition.mesh_pieces(grid, np.array(triangles), 1.0)
+    assert len(pieces) == decomposition.MAX_SLABS
+    scenario = sc.Scenario(
+        name="shell",
+        start=[0, -3, 0.5],
+        goal=[0, 5, 0.5],
+        duration=1.0,
+        obstacles=[sc.Obstacle(shape=sc.Convex(vertices=p.tolist())) for p in pieces],
+    )
+    assert max(obstacle_distances(scenario, grid)) <= 1e-6
+    rng = np.random.default_rng(5)
+    a, y = rng.uniform(0.05, np.pi - 0.05, 100), rng.uniform(0.1, 1.9, 100)
+    for r in (0.85, 1.15):
+        off = np.c_[r * np.cos(a), y, r * np.sin(a)]
+        assert min(obstacle_distances(scenario, off)) > 0.0
+    assert (
+        min(obstacle_distances(scenario, np.c_[np.zeros(20), y[:20], np.zeros(20)]))
+        > 0.5
     )

@@ -31,24 +31,23 @@ from mfi_drake.world.surfaces import THICKNESS, surface_slabs, welded
 
 # CoACD's parameters: its concavity threshold (0.05) with a fixed seed, so
 # that a mesh decomposes the same on every machine, and its search bounded so
-# that one mesh of a world costs seconds, not minutes (its defaults took
-# 35 s for one 6,000-triangle cabinet of the PyBullet kitchen; these 13 s):
-# at most 16 pieces, a shallower and smaller tree search, fewer samples.
+# that one mesh of a world costs a second or two, not minutes (its defaults
+# took 35 s for one 6,000-triangle cabinet of the PyBullet kitchen, and 13 s
+# for five of its meshes that these take 7 s for): at most 16 pieces, a
+# shallower and smaller tree search, fewer samples.
 COACD = {
     "threshold": 0.05,
     "seed": 0,
     "max_convex_hull": 16,
-    "resolution": 1000,
+    "resolution": 500,
     "mcts_nodes": 10,
-    "mcts_iterations": 30,
+    "mcts_iterations": 15,
     "mcts_max_depth": 2,
 }
 # An open mesh whose slabs would be more than this (a finely tessellated
-# curved surface: thousands) is closed by CoACD's voxel remeshing instead
-# and decomposed as a thin solid (the slab's accuracy is not worth a
-# scene of thousands of pieces).
+# curved surface: thousands of slabs) flies as MAX_SLABS pieces instead,
+# each the hull of a group of neighbouring triangles (`_grouped_pieces`).
 MAX_SLABS = 64
-OPEN_COACD = {**COACD, "preprocess_mode": "on", "preprocess_resolution": 30}
 # A closed mesh enclosing at least this share of its hull's volume flies as
 # its hull, one piece, without CoACD (a box, a cylinder, a tessellated ball).
 NEAR_CONVEX = 0.95
@@ -82,14 +81,12 @@ def convex_pieces(vertices: np.ndarray, triangles: np.ndarray) -> list[np.ndarra
     return _cached(vertices, triangles, ["coacd", COACD], _coacd)
 
 
-def _coacd(
-    vertices: np.ndarray, triangles: np.ndarray, parameters: dict = COACD
-) -> list[np.ndarray]:
+def _coacd(vertices: np.ndarray, triangles: np.ndarray) -> list[np.ndarray]:
     import coacd  # imported here: only a scenario with a mesh pays for it
 
     coacd.set_log_level("error")
     try:
-        parts = coacd.run_coacd(coacd.Mesh(vertices, triangles), **parameters)
+        parts = coacd.run_coacd(coacd.Mesh(vertices, triangles), **COACD)
     except Exception as e:  # CoACD raises RuntimeError and others
         raise ValueError(f"cannot be decomposed ({e})") from None
     pieces = [np.asarray(v, float) for v, _ in parts if _solid(np.asarray(v))]
@@ -153,17 +150,46 @@ def mesh_pieces(vertices: np.ndarray, triangles: np.ndarray, scale) -> list:
             return [vertices[hull.vertices] * scale]
         return [piece * scale for piece in convex_pieces(vertices, oriented)]
     scaled = np.ascontiguousarray(vertices * scale)
-    method = ["surface", THICKNESS, MAX_SLABS, OPEN_COACD]
+    method = ["surface", THICKNESS, MAX_SLABS]
     return _cached(scaled, triangles, method, _surface_pieces)
 
 
 def _surface_pieces(vertices: np.ndarray, triangles: np.ndarray) -> list:
     """Slabs over an open mesh's surface, or, over MAX_SLABS of them,
-    CoACD's pieces of it remeshed closed."""
+    `_grouped_pieces`."""
     slabs = surface_slabs(vertices, triangles, limit=MAX_SLABS)
     if len(slabs) <= MAX_SLABS:
         return slabs
-    return _coacd(vertices, triangles, OPEN_COACD)
+    return _grouped_pieces(vertices, triangles, MAX_SLABS)
+
+
+def _grouped_pieces(
+    vertices: np.ndarray, triangles: np.ndarray, count: int
+) -> list[np.ndarray]:
+    """`count` convex pieces holding an open mesh's surface: its triangles
+    halved along the longest extent of their centres, again and again (a
+    bounding-volume tree's leaves), each group's hull thickened by
+    THICKNESS along its thinnest axis. Each piece holds its triangles, so
+    the surface is inside the pieces; a piece overreaches the surface by
+    the group's curvature over its width (with MAX_SLABS groups, a few
+    centimetres for a kitchen's bowls and shades)."""
+    centres = vertices[triangles].mean(axis=1)
+    groups, pieces = [(np.arange(len(triangles)), count)], []
+    while groups:
+        members, share = groups.pop()
+        if share > 1 and len(members) > 1:
+            ends = centres[members]
+            order = members[np.argsort(ends[:, np.argmax(np.ptp(ends, axis=0))])]
+            cut = min(max(len(order) * (share // 2) // share, 1), len(order) - 1)
+            groups += [(order[:cut], share // 2), (order[cut:], share - share // 2)]
+            continue
+        points = vertices[np.unique(triangles[members])]
+        _, _, axes = np.linalg.svd(points - points.mean(axis=0))
+        offset = 0.5 * THICKNESS * axes[-1]
+        piece = np.vstack([points + offset, points - offset])
+        if _solid(piece):  # not a group of triangles of no area
+            pieces.append(piece)
+    return pieces
 
 
 def mesh_obstacles(
