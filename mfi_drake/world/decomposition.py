@@ -33,12 +33,14 @@ from mfi_drake.world.surfaces import THICKNESS, surface_slabs, welded
 # that a mesh decomposes the same on every machine, and its search bounded so
 # that one mesh of a world costs a second or two, not minutes (its defaults
 # took 35 s for one 6,000-triangle cabinet of the PyBullet kitchen, and 13 s
-# for five of its meshes that these take 7 s for): at most 16 pieces, a
-# shallower and smaller tree search, fewer samples.
+# for five of its meshes that these take 7 s for): at most 8 pieces, a
+# shallower and smaller tree search, fewer samples (the pieces of a world
+# are all registered in the flight's SceneGraph, whose cost grows as their
+# number squared: docs/big_scenes.md).
 COACD = {
     "threshold": 0.05,
     "seed": 0,
-    "max_convex_hull": 16,
+    "max_convex_hull": 8,
     "resolution": 500,
     "mcts_nodes": 10,
     "mcts_iterations": 15,
@@ -47,7 +49,7 @@ COACD = {
 # An open mesh whose slabs would be more than this (a finely tessellated
 # curved surface: thousands of slabs) flies as MAX_SLABS pieces instead,
 # each the hull of a group of neighbouring triangles (`_grouped_pieces`).
-MAX_SLABS = 64
+MAX_SLABS = 16
 # A closed mesh enclosing at least this share of its hull's volume flies as
 # its hull, one piece, without CoACD (a box, a cylinder, a tessellated ball).
 NEAR_CONVEX = 0.95
@@ -198,17 +200,30 @@ def mesh_obstacles(
     """An obstacle whose shape is the mesh file `path` (any format of
     `mesh_files.MESH_SUFFIXES`, scaled by `scale`, a number or one per axis:
     SDFormat's <scale>) as its convex pieces (`mesh_pieces`), each at its
-    pose and with its motion, named "`name` piece k". Raises ValueError,
-    one line."""
+    pose and with its motion, named "`name` piece k". A piece of an
+    obstacle that does not move is centred on its own origin, so that its
+    bounding radius is its own size, not its distance from the mesh's
+    origin (which made every piece of a room a candidate nearest any
+    point: `obstacles._candidates`). Raises ValueError, one line."""
+    # Imported here: a decomposing worker process needs no pydrake.
+    from mfi_drake.config.dynamic import moves
+    from mfi_drake.world.motion import obstacle_pose
+
     pieces = mesh_pieces(*read_mesh(path), scale)
-    return [
-        dataclasses.replace(
-            obstacle,
-            shape=sc.Convex(vertices=piece.tolist()),
-            name=f"{name} piece {k}",
+    X = obstacle_pose(obstacle)
+    still = not moves(obstacle.motion)
+    out = []
+    for k, piece in enumerate(pieces):
+        centre = (piece.min(axis=0) + piece.max(axis=0)) / 2 if still else np.zeros(3)
+        out.append(
+            dataclasses.replace(
+                obstacle,
+                shape=sc.Convex(vertices=(piece - centre).tolist()),
+                position=[float(x) for x in X.multiply(centre)],
+                name=f"{name} piece {k}",
+            )
         )
-        for k, piece in enumerate(pieces)
-    ]
+    return out
 
 
 def _warm(path: str, scale) -> None:

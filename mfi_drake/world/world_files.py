@@ -163,10 +163,11 @@ def world_obstacles(
         raise ValueError("holds no collision geometry")
     notes = prepared.summary()
     if heard.messages:
+        # Drake names the text it parsed "<literal-string>.urdf" and its
+        # line; a rewritten text's lines are no file's.
+        first = re.sub(r"^<literal-string>\.\w+:\d+: ", "", heard.messages[0])
         notes += "; " if notes else ""
-        notes += (
-            f"{len(heard.messages)} Drake warnings (the first: {heard.messages[0]})"
-        )
+        notes += f"{len(heard.messages)} Drake warnings (the first: {first})"
     return World(obstacles, max(grounds, default=None), notes)
 
 
