@@ -195,12 +195,13 @@ def _grouped_pieces(
 
 
 def mesh_obstacles(
-    obstacle: sc.Obstacle, path: str, scale, name: str
+    obstacle: sc.Obstacle, path: str, scale, name: str, known: dict | None = None
 ) -> list[sc.Obstacle]:
     """An obstacle whose shape is the mesh file `path` (any format of
     `mesh_files.MESH_SUFFIXES`, scaled by `scale`, a number or one per axis:
-    SDFormat's <scale>) as its convex pieces (`mesh_pieces`), each at its
-    pose and with its motion, named "`name` piece k". A piece of an
+    SDFormat's <scale>) as its convex pieces (`mesh_pieces`, or `known`'s:
+    `prefetch_pieces`'), each at its pose and with its motion, named
+    "`name` piece k". A piece of an
     obstacle that does not move is centred on its own origin, so that its
     bounding radius is its own size, not its distance from the mesh's
     origin (which made every piece of a room a candidate nearest any
@@ -209,7 +210,9 @@ def mesh_obstacles(
     from mfi_drake.config.dynamic import moves
     from mfi_drake.world.motion import obstacle_pose
 
-    pieces = mesh_pieces(*read_mesh(path), scale)
+    pieces = (known or {}).get(mesh_key(path, scale))
+    if pieces is None:
+        pieces = mesh_pieces(*read_mesh(path), scale)
     X = obstacle_pose(obstacle)
     still = not moves(obstacle.motion)
     out = []
@@ -226,27 +229,35 @@ def mesh_obstacles(
     return out
 
 
-def _warm(path: str, scale) -> None:
-    """Fills the cache with the pieces of the mesh file `path`; a mesh that
-    cannot be read or decomposed is left for `mesh_obstacles` to refuse."""
+def mesh_key(path: str, scale) -> tuple[str, tuple]:
+    """A mesh file and its scale as `prefetch_pieces` keys them."""
+    return path, tuple(np.ravel(scale).astype(float).tolist())
+
+
+def _warm(path: str, scale) -> list[np.ndarray] | None:
+    """The pieces of the mesh file `path`, into the cache too; None for a
+    mesh that cannot be read or decomposed (`mesh_obstacles` refuses it)."""
     with contextlib.suppress(ValueError):
-        mesh_pieces(*read_mesh(path), scale)
+        return mesh_pieces(*read_mesh(path), scale)
+    return None
 
 
-def prefetch_pieces(meshes: list[tuple[str, object]]) -> None:
-    """Decomposes the mesh files of `meshes` ((path, scale) pairs) at once,
-    a process a core, into the cache; one mesh or one core: nothing to
-    share, `mesh_obstacles` decomposes it."""
-    unique = list(dict.fromkeys((p, tuple(np.ravel(s).tolist())) for p, s in meshes))
+def prefetch_pieces(meshes: list[tuple[str, object]]) -> dict:
+    """The pieces of the mesh files of `meshes` ((path, scale) pairs), by
+    `mesh_key`, decomposed at once, a process a core, and cached; none
+    for one mesh or one core (nothing to share: `mesh_obstacles`
+    decomposes it), nor for a mesh that cannot be decomposed."""
+    unique = list(dict.fromkeys(mesh_key(p, s) for p, s in meshes))
     # The largest files first, so that no core is left with one at the end.
     unique.sort(key=lambda m: -os.path.getsize(m[0]) if os.path.isfile(m[0]) else 0)
     workers = min(len(unique), os.cpu_count() or 1)
     if workers < 2:
-        return
+        return {}
     # Spawned, not forked: the parent may hold threads (numba, Drake).
     spawn = multiprocessing.get_context("spawn")
     with concurrent.futures.ProcessPoolExecutor(workers, mp_context=spawn) as pool:
-        list(pool.map(_warm, *zip(*unique, strict=True)))
+        found = pool.map(_warm, *zip(*unique, strict=True))
+        return {k: v for k, v in zip(unique, found, strict=True) if v is not None}
 
 
 def with_meshes(scenario: sc.Scenario, where: str) -> sc.Scenario:
@@ -255,7 +266,7 @@ def with_meshes(scenario: sc.Scenario, where: str) -> sc.Scenario:
     obstacle and the file."""
     if not any(isinstance(o.shape, sc.Mesh) for o in scenario.obstacles):
         return scenario
-    prefetch_pieces(
+    known = prefetch_pieces(
         [
             (os.path.join(scenario.base_dir, o.shape.file), o.shape.scale)
             for o in scenario.obstacles
@@ -271,7 +282,7 @@ def with_meshes(scenario: sc.Scenario, where: str) -> sc.Scenario:
         name = obstacle.name or f"obstacles[{i}] (mesh {shape.file!r})"
         path = os.path.join(scenario.base_dir, shape.file)
         try:
-            obstacles += mesh_obstacles(obstacle, path, shape.scale, name)
+            obstacles += mesh_obstacles(obstacle, path, shape.scale, name, known)
         except ValueError as e:
             sc.fail(f"{where}: obstacles[{i}]", "shape.file", shape.file, str(e))
     return dataclasses.replace(scenario, obstacles=obstacles)

@@ -125,6 +125,9 @@ class Prepared:
     # each plane's: its normal (in its collision's frame) and "file:line".
     meshes: list[tuple[str, list[float], str]] = field(default_factory=list)
     planes: list[tuple[list[float], str]] = field(default_factory=list)
+    # Each mesh's convex pieces once decomposed, by `decomposition.mesh_key`
+    # (`world_files` fills it).
+    pieces: dict = field(default_factory=dict)
     read_past: Counter = field(default_factory=Counter)
     unknown: Counter = field(default_factory=Counter)
     starts: list[list[int]] = field(default_factory=list)  # each element's line

@@ -150,7 +150,9 @@ def world_obstacles(
     prepared = prepare(path, list(model_paths))
     # Its meshes decomposed at once over the cores, into the cache that
     # each geometry's `mesh_obstacles` reads below.
-    prefetch_pieces([(mesh, scale) for mesh, scale, _ in prepared.meshes])
+    prepared.pieces = prefetch_pieces(
+        [(mesh, scale) for mesh, scale, _ in prepared.meshes]
+    )
     heard = _DrakeWarnings()
     obstacles, grounds = [], []
     for part in range(len(prepared.texts)):
@@ -262,7 +264,7 @@ def _obstacles(
             else (str(shape.source().path()), shape.scale3(), "")
         )
         try:
-            return mesh_obstacles(obstacle, path, scale, where)
+            return mesh_obstacles(obstacle, path, scale, where, prepared.pieces)
         except ValueError as e:
             cause = f"model {model!r} geometry {name!r}: {e}"
             raise ValueError(f"{origin}: {cause}" if origin else cause) from None
