@@ -33,14 +33,14 @@ from mfi_drake.world.surfaces import THICKNESS, surface_slabs, welded
 # that a mesh decomposes the same on every machine, and its search bounded so
 # that one mesh of a world costs a second or two, not minutes (its defaults
 # took 35 s for one 6,000-triangle cabinet of the PyBullet kitchen, and 13 s
-# for five of its meshes that these take 7 s for): at most 8 pieces, a
+# for five of its meshes that these take 7 s for): at most 12 pieces, a
 # shallower and smaller tree search, fewer samples (the pieces of a world
 # are all registered in the flight's SceneGraph, whose cost grows as their
 # number squared: docs/big_scenes.md).
 COACD = {
     "threshold": 0.05,
     "seed": 0,
-    "max_convex_hull": 8,
+    "max_convex_hull": 12,
     "resolution": 500,
     "mcts_nodes": 10,
     "mcts_iterations": 15,
