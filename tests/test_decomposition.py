@@ -60,7 +60,9 @@ def test_the_u_flies_as_its_pieces_written_as_convex(tmp_path, u_obj):
     (d,) = obstacle_distances(mesh, [NOTCH])
     assert d == pytest.approx(1.5, abs=0.01)
     written = "".join(
-        f"  - shape: !Convex {{vertices: {o.shape.vertices}}}\n" for o in pieces
+        f"  - shape: !Convex {{vertices: {o.shape.vertices}}}\n"
+        f"    position: {o.position}\n"
+        for o in pieces
     )
     path = tmp_path / "pieces.yaml"
     path.write_text(f"{HEAD}obstacles:\n{written}")

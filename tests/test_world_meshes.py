@@ -94,17 +94,17 @@ def test_each_box_file_flies_as_the_box(name):
 
 
 def test_meshes_are_decomposed_in_parallel_into_the_cache(monkeypatch):
-    """`prefetch_pieces` decomposes a closed mesh (CoACD) and an open one
-    (slabs) in worker processes: this process then reads both from the
-    cache (CoACD, made to fail here, is not called), the box's pieces the
-    box scaled."""
+    """`prefetch_pieces` decomposes an open mesh (slabs) in worker
+    processes: this process then reads it from the cache; the box, convex,
+    is its hull, cached nowhere and never given to CoACD (made to fail
+    here), the box scaled."""
     import coacd
 
     from mfi_drake.world import decomposition
 
     box, wall = os.path.join(DATA, "box_cm.dae"), os.path.join(DATA, "wall_open.ply")
     decomposition.prefetch_pieces([(box, 2.0), (wall, 1.0)])
-    assert len(os.listdir(decomposition.cache_dir())) == 2  # one file a mesh
+    assert len(os.listdir(decomposition.cache_dir())) == 1  # the wall's slabs
 
     def fail(*args, **kwargs):
         raise AssertionError("decomposed again")

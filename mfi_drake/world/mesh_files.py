@@ -109,7 +109,9 @@ def _trimesh(path: str, suffix: str) -> tuple[np.ndarray, np.ndarray]:
         # with a RuntimeWarning; the checks after reading judge the values.
         with warnings.catch_warnings(), bounded_memory(path):
             warnings.simplefilter("ignore", RuntimeWarning)
-            loaded = trimesh.load(path, file_type=suffix[1:], force="mesh")
+            # An OBJ's materials (textures) are not read: no flight sees them.
+            options = {"skip_materials": True} if suffix == ".obj" else {}
+            loaded = trimesh.load(path, file_type=suffix[1:], force="mesh", **options)
         vertices = np.asarray(loaded.vertices, dtype=float)
         triangles = np.asarray(loaded.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as e:  # the readers raise many kinds; the user needs one line

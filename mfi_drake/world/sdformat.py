@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 
+from mfi_drake.world.mjcf import MAX_DEPTH, rewrite_mjcf
 from mfi_drake.world.model_files import (
     MODEL_ENV,
     env_folders,
@@ -53,7 +54,6 @@ from mfi_drake.world.model_files import (
 
 MARK = re.compile(r"__mfi_(mesh|plane)_(\d+)__(.*)$")
 CONVEX = "drake:declare_convex"  # Drake's: a mesh flown as its hull
-MAX_DEPTH = 32  # includes nested deeper are a loop
 PART = 250  # models a part (Drake parses 250 in 0.1 s, 2000 in 8 s)
 # What Drake needs of SDFormat and URDF: the children and attributes kept.
 SDF = {
@@ -125,6 +125,9 @@ class Prepared:
     # each plane's: its normal (in its collision's frame) and "file:line".
     meshes: list[tuple[str, list[float], str]] = field(default_factory=list)
     planes: list[tuple[list[float], str]] = field(default_factory=list)
+    # Each mesh's convex pieces once decomposed, by `decomposition.mesh_key`
+    # (`world_files` fills it).
+    pieces: dict = field(default_factory=dict)
     read_past: Counter = field(default_factory=Counter)
     unknown: Counter = field(default_factory=Counter)
     starts: list[list[int]] = field(default_factory=list)  # each element's line
@@ -456,13 +459,15 @@ def _named(parent: ET.Element, tag: str, name: str) -> list[ET.Element]:
 
 def prepare(path: str, model_paths: list[str]) -> Prepared:
     """The world file `path` rewritten for Drake (`Prepared.kind` "mjcf":
-    a MuJoCo file, which Drake reads as it is). Raises ValueError, one line
-    naming a file and line."""
+    a MuJoCo file, as `mjcf.rewrite_mjcf` says). Raises ValueError, one
+    line naming a file and line."""
     root, origins = read_xml(path)
     rules = {"sdf": SDF, "robot": URDF}.get(root.tag)
     if root.tag == "mujoco":
-        _mjcf_includes(root, origins, os.path.dirname(path), [path])
-        return Prepared(kind="mjcf")
+        text, planes, visual = rewrite_mjcf(path, root, origins)
+        out = Prepared(texts=[text], kind="mjcf", planes=planes)
+        out.read_past["visual"] = visual
+        return out
     if rules is None:
         raise ValueError(
             f"{origins[root]}: the root <{root.tag}> is not SDFormat (<sdf>), "
@@ -480,20 +485,3 @@ def prepare(path: str, model_paths: list[str]) -> Prepared:
         out.starts.append([int(lines[e].rsplit(":", 1)[1]) for e in again.iter()])
         out.sources.append([reader.origins[e] for e in part.iter()])
     return out
-
-
-def _mjcf_includes(
-    root: ET.Element, origins: dict, folder: str, chain: list[str]
-) -> None:
-    """Raises ValueError at an MJCF <include> of a file that includes
-    itself, which Drake's MJCF parser follows until the stack overflows
-    (a segmentation fault). MuJoCo resolves includes against the main
-    file's folder (`folder`)."""
-    for include in root.iter("include"):
-        target = os.path.normpath(os.path.join(folder, include.get("file", "")))
-        if not os.path.isfile(target):
-            continue  # Drake says what is missing
-        if target in chain or len(chain) >= MAX_DEPTH:
-            raise ValueError(f"{origins[include]}: {target} includes itself")
-        inner, more = read_xml(target)
-        _mjcf_includes(inner, more, folder, [*chain, target])

@@ -87,13 +87,17 @@ def _hull_area(points: np.ndarray) -> float:
 
 
 def surface_patches(
-    vertices: np.ndarray, triangles: np.ndarray, flatness: float = THICKNESS / 2
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    flatness: float = THICKNESS / 2,
+    limit: int | None = None,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """(triangle indices, unit normal) of each patch (see the module's
     docstring): grown from each triangle not yet in one, largest first,
     over shared edges, by the triangles whose vertices lie within
-    `flatness` of its plane and that keep its outline convex. Triangles
-    of no area are left out (they add no surface)."""
+    `flatness` of its plane and that keep its outline convex; past
+    `limit` patches, the first limit + 1. Triangles of no area are left
+    out (they add no surface)."""
     a, b, c = (vertices[triangles[:, k]] for k in range(3))
     cross = np.cross(b - a, c - a)
     double_area = np.linalg.norm(cross, axis=1)
@@ -105,6 +109,8 @@ def surface_patches(
     for seed in np.argsort(-double_area, kind="stable"):
         if taken[seed]:
             continue
+        if limit is not None and len(patches) > limit:
+            break
         n, origin = normals[seed], a[seed]
         u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
         u /= np.linalg.norm(u)
@@ -134,20 +140,36 @@ def surface_patches(
     return patches
 
 
+def welded(
+    vertices: np.ndarray, triangles: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh with equal corners (to a nanometre) made one and the
+    triangles that lose a corner by it left out: OBJ exporters repeat a
+    corner for each of its normals or texture coordinates, STL for each
+    face, which leaves a closed surface looking open."""
+    vertices, index = np.unique(np.round(vertices, 9), axis=0, return_inverse=True)
+    t = index.reshape(-1)[triangles]
+    kept = (t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 2] != t[:, 0])
+    return vertices, t[kept] if kept.any() else t
+
+
 def surface_slabs(
-    vertices: np.ndarray, triangles: np.ndarray, thickness: float = THICKNESS
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    thickness: float = THICKNESS,
+    limit: int | None = None,
 ) -> list[np.ndarray]:
     """The vertices (2k, 3) of each patch's slab (`surface_patches`): its
-    k vertices moved ±thickness/2 along its normal. Raises ValueError, one
-    line, for a mesh of no surface."""
-    # Equal corners (to a nanometre) made one: a file that repeats each
-    # face's corners (STL, many OBJ exporters) still has shared edges.
-    vertices, index = np.unique(
-        np.round(np.asarray(vertices, dtype=float), 9), axis=0, return_inverse=True
+    k vertices moved ±thickness/2 along its normal; past `limit` slabs,
+    the first limit + 1 (the caller flies the mesh otherwise). Raises
+    ValueError, one line, for a mesh of no surface."""
+    # Shared edges: a file that repeats each face's corners has none.
+    vertices, triangles = welded(
+        np.asarray(vertices, dtype=float), np.asarray(triangles, dtype=np.int64)
     )
-    triangles = index.reshape(-1)[np.asarray(triangles, dtype=np.int64)]
     slabs = []
-    for members, normal in surface_patches(vertices, triangles, thickness / 2):
+    patches = surface_patches(vertices, triangles, thickness / 2, limit)
+    for members, normal in patches:
         corners = vertices[np.unique(triangles[members])]
         offset = 0.5 * thickness * normal
         slabs.append(np.vstack([corners + offset, corners - offset]))

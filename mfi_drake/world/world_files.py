@@ -38,8 +38,11 @@ from pydrake.systems.framework import DiagramBuilder
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground
 from mfi_drake.config.worlds import ScenarioWarning, WorldPose
-from mfi_drake.world.decomposition import mesh_obstacles, with_meshes
-from mfi_drake.world.obstacles import quiet_half_spaces
+from mfi_drake.world.decomposition import (
+    mesh_obstacles,
+    prefetch_pieces,
+    with_meshes,
+)
 from mfi_drake.world.point_clouds import with_map
 from mfi_drake.world.sdformat import MARK, Prepared, prepare
 
@@ -106,9 +109,8 @@ def _parse(
     propagates, logger.propagate = logger.propagate, False
     try:
         parser = Parser(plant)
-        if prepared.kind == "mjcf":
-            return parser.AddModels(path)
-        return parser.AddModelsFromString(prepared.texts[part], prepared.kind)
+        kind = "xml" if prepared.kind == "mjcf" else prepared.kind
+        return parser.AddModelsFromString(prepared.texts[part], kind)
     except (RuntimeError, SystemExit) as e:  # SystemExit: a failed Drake check
         lines = [line for line in str(e).splitlines() if line.strip()] or ["?"]
         cause = lines[0]
@@ -146,9 +148,14 @@ def world_obstacles(
         raise ValueError(f"no such file ({path})")
     X_SW = X_SW if X_SW is not None else RigidTransform()
     prepared = prepare(path, list(model_paths))
+    # Its meshes decomposed at once over the cores, into the cache that
+    # each geometry's `mesh_obstacles` reads below.
+    prepared.pieces = prefetch_pieces(
+        [(mesh, scale) for mesh, scale, _ in prepared.meshes]
+    )
     heard = _DrakeWarnings()
     obstacles, grounds = [], []
-    for part in range(max(len(prepared.texts), 1)):  # MJCF: its file, whole
+    for part in range(len(prepared.texts)):
         for found in _part(path, prepared, part, heard, X_SW, label):
             if isinstance(found, float):
                 grounds.append(found)
@@ -158,10 +165,11 @@ def world_obstacles(
         raise ValueError("holds no collision geometry")
     notes = prepared.summary()
     if heard.messages:
+        # Drake names the text it parsed "<literal-string>.urdf" and its
+        # line; a rewritten text's lines are no file's.
+        first = re.sub(r"^<literal-string>\.\w+:\d+: ", "", heard.messages[0])
         notes += "; " if notes else ""
-        notes += (
-            f"{len(heard.messages)} Drake warnings (the first: {heard.messages[0]})"
-        )
+        notes += f"{len(heard.messages)} Drake warnings (the first: {first})"
     return World(obstacles, max(grounds, default=None), notes)
 
 
@@ -179,7 +187,6 @@ def _part(
     # without a world does not pay.
     from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 
-    quiet_half_spaces()  # an MJCF's plane is the ground
     plant, scene_graph = AddMultibodyPlantSceneGraph(DiagramBuilder(), 0.0)
     _parse(path, prepared, part, plant, heard)
     try:
@@ -257,7 +264,7 @@ def _obstacles(
             else (str(shape.source().path()), shape.scale3(), "")
         )
         try:
-            return mesh_obstacles(obstacle, path, scale, where)
+            return mesh_obstacles(obstacle, path, scale, where, prepared.pieces)
         except ValueError as e:
             cause = f"model {model!r} geometry {name!r}: {e}"
             raise ValueError(f"{origin}: {cause}" if origin else cause) from None
