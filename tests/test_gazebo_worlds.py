@@ -401,3 +401,28 @@ def test_a_thousand_geometries_and_a_ground_plane_load(tmp_path):
     # model once, where it was written.
     found = {o.name.split("'")[3]: o.position for o in world.obstacles}
     assert found == {f"b{k}": [x, y, 1.0] for k, (x, y) in enumerate(centres)}
+
+
+def test_an_include_of_a_light_only_is_read_past_as_a_light(tmp_path):
+    """Fuel's "Sun", included by most Gazebo Sim worlds, is an SDFormat file
+    of one <light> and no <model>: read past and counted, not refused."""
+    sun = tmp_path / "models" / "sun"
+    sun.mkdir(parents=True)
+    (sun / "model.sdf").write_text(
+        '<sdf version="1.6"><light type="directional" name="sun">'
+        "<pose>0 0 10 0 0 0</pose></light></sdf>"
+    )
+    (tmp_path / "w.world").write_text(
+        '<sdf version="1.6"><world name="w"><include><uri>model://sun</uri>'
+        "</include><model name='wall'><static>true</static><link name='l'>"
+        "<collision name='c'><pose>6 0 1.5 0 0 0</pose><geometry><box>"
+        "<size>0.2 4 3</size></box></geometry></collision></link></model>"
+        "</world></sdf>"
+    )
+    extra = f"model_paths: [{tmp_path / 'models'}]\n"
+    with pytest.warns(ScenarioWarning) as heard:
+        scenario = load_scenario(_yaml(tmp_path, "w.world", extra))
+    (line,) = [str(w.message) for w in heard]
+    assert "read past 1 light" in line and "\n" not in line
+    (wall,) = scenario.obstacles
+    assert wall.shape.size == [0.2, 4.0, 3.0] and wall.position == [6.0, 0.0, 1.5]

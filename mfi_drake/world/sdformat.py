@@ -304,8 +304,9 @@ class _Reader:
         self.origins[pose] = self.origins[cause]
         element.insert(0, pose)
 
-    def include(self, element: ET.Element, folder: str) -> ET.Element:
-        """The model an <include> names, with its overrides."""
+    def include(self, element: ET.Element, folder: str) -> ET.Element | None:
+        """The model an <include> names, with its overrides; None for an
+        include of lights or actors only."""
         where = self.origins[element]
         uri = (element.findtext("uri") or "").strip()
         if not uri:
@@ -320,6 +321,14 @@ class _Reader:
         root, origins = read_xml(target)
         self.origins.update(origins)
         model = root.find("model") if root.tag == "sdf" else None
+        # An include may also name a light or an actor (Fuel's "Sun"): read
+        # past and counted like those written in the world itself.
+        others = (
+            [] if root.tag != "sdf" else root.findall("light") + root.findall("actor")
+        )
+        if model is None and others:
+            self.out.read_past.update(other.tag for other in others)
+            return None
         if model is None:
             raise ValueError(f"{origins[root]}: {uri} holds no SDFormat <model>")
         self.including.append(target)
