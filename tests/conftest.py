@@ -1,7 +1,10 @@
 """Shared fixtures: paths to the shipped scenarios, a YAML writer, a current
 directory for a user's module, an in-process Dask client, the benchmark
-scripts as modules, and the files git tracks."""
+scripts as modules, and the files git tracks; and where the suite's time
+goes (per test file, at the end of every run, beside pytest's
+--durations=20 of the slowest tests that pyproject.toml asks for)."""
 
+import collections
 import importlib.util
 import os
 import subprocess
@@ -13,6 +16,29 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENARIOS = os.path.join(ROOT, "scenarios")
+
+# Seconds per test file (setup, call and teardown of its tests; with xdist
+# the workers' reports reach the controller, which sums them).
+FILE_SECONDS: collections.Counter = collections.Counter()
+TIME_FILES_SHOWN = 20
+
+
+def pytest_runtest_logreport(report) -> None:
+    FILE_SECONDS[report.nodeid.split("::")[0]] += report.duration
+
+
+def pytest_terminal_summary(terminalreporter) -> None:
+    if not FILE_SECONDS:
+        return
+    total = sum(FILE_SECONDS.values())
+    terminalreporter.section(
+        f"time per test file (the longest {min(TIME_FILES_SHOWN, len(FILE_SECONDS))}"
+        f" of {len(FILE_SECONDS)}; {total:.0f} s of test time in all)"
+    )
+    for path, seconds in FILE_SECONDS.most_common(TIME_FILES_SHOWN):
+        terminalreporter.write_line(
+            f"{seconds:8.1f} s {100 * seconds / total:5.1f} %  {path}"
+        )
 
 
 @pytest.fixture
