@@ -140,3 +140,34 @@ def held(scenario: sc.Scenario) -> None:
     assert error[hover].max() <= scenario.goal_tolerance
     # Held for most of the flight: arrived well before a stall time ran out.
     assert m["convergence_time"] < DURATION - 6 * RULE.stall_time
+
+
+def test_goal_hold_benchmark_reads_arrival_and_hold_from_the_log():
+    """benchmarks/goal_hold.py's per-vehicle row, by hand: errors 1, 0.05,
+    0.12, 0.02 m at t = 0..3 s arrive at 1 s, stray to 0.12 m after and
+    hold at the end; a second vehicle that never comes within 0.1 m has
+    no arrival and does not hold."""
+    from types import SimpleNamespace
+
+    from .conftest import load_benchmark
+
+    goal_hold = load_benchmark("goal_hold")
+    scenario = SimpleNamespace(goal=[0.0, 0.0, 0.0], goal_tolerance=0.1)
+
+    def flight(errors, others=()):
+        positions = np.array([[e, 0.0, 0.0] for e in errors])
+        return SimpleNamespace(
+            scenario=scenario,
+            positions=positions,
+            times=np.arange(len(errors), dtype=float),
+            metrics={"outcome": "success"},
+            others=list(others),
+        )
+
+    rows = goal_hold.vehicle_rows(flight([1.0, 0.05, 0.12, 0.02], [flight([1.0, 0.5])]))
+    assert rows[0]["arrival"] == 1.0 and rows[0]["held"]
+    assert rows[0]["after"] == pytest.approx(0.12) and rows[0]["final"] == 0.02
+    assert rows[1]["arrival"] is None and not rows[1]["held"]
+    text = goal_hold.table([("scene.yaml", rows)], 120.0)
+    assert "1 of 2 vehicles arrived; 1 of those hold" in text
+    assert "| scene.yaml | 1 | success | never | – | 0.500 | no |" in text
