@@ -404,8 +404,9 @@ def test_a_thousand_geometries_and_a_ground_plane_load(tmp_path):
 
 
 def test_an_include_of_a_light_only_is_read_past_as_a_light(tmp_path):
-    """Fuel's "Sun", included by most Gazebo Sim worlds, is an SDFormat file
-    of one <light> and no <model>: read past and counted, not refused."""
+    """Fuel's "Sun", included by many worlds written for Gazebo Sim
+    (turtlebot3_gazebo's), is an SDFormat file of one <light> and no
+    <model>: read past and counted, not refused."""
     sun = tmp_path / "models" / "sun"
     sun.mkdir(parents=True)
     (sun / "model.sdf").write_text(
@@ -426,3 +427,33 @@ def test_an_include_of_a_light_only_is_read_past_as_a_light(tmp_path):
     assert "read past 1 light" in line and "\n" not in line
     (wall,) = scenario.obstacles
     assert wall.shape.size == [0.2, 4.0, 3.0] and wall.position == [6.0, 0.0, 1.5]
+
+
+def test_fuels_sun_and_ground_plane_not_downloaded_are_stood_in_for(
+    tmp_path, monkeypatch
+):
+    """A world including Fuel's Sun and Ground Plane (any Fuel host, the
+    name's case as written) on a machine whose Fuel caches are empty loads:
+    the Sun is a light read past, the Ground Plane the scenario's ground at
+    its include's height, and the line says the stand-ins were read. A
+    model of another owner is still refused (the broken-world cases)."""
+    monkeypatch.setenv("HOME", str(tmp_path))  # no ~/.gz/fuel
+    monkeypatch.setenv("GZ_FUEL_CACHE_PATH", str(tmp_path / "empty"))
+    (tmp_path / "w.world").write_text(
+        '<sdf version="1.9"><world name="w">'
+        "<include><uri>https://fuel.gazebosim.org/1.0/OpenRobotics/models/Sun"
+        "</uri></include><include><uri>https://fuel.ignitionrobotics.org/1.0/"
+        "openrobotics/models/ground plane</uri><pose>0 0 -1 0 0 0</pose>"
+        "</include><model name='wall'><static>true</static><link name='l'>"
+        "<collision name='c'><pose>6 0 1.5 0 0 0</pose><geometry><box>"
+        "<size>0.2 4 3</size></box></geometry></collision></link></model>"
+        "</world></sdf>"
+    )
+    with pytest.warns(ScenarioWarning) as heard:
+        scenario = load_scenario(_yaml(tmp_path, "w.world"))
+    (line,) = [str(w.message) for w in heard]
+    assert "read past 1 light" in line
+    assert "Fuel's 'Sun', 'ground plane' not downloaded: mfi_drake's stand-in" in line
+    assert scenario.ground.height == -1.0
+    (wall,) = scenario.obstacles
+    assert wall.position == [6.0, 0.0, 1.5]

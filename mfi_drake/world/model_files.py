@@ -72,10 +72,24 @@ def env_folders(names: tuple[str, ...]) -> list[str]:
     return [f for n in names for f in os.environ.get(n, "").split(":") if f]
 
 
-def fuel_folders(uri: str, where: str) -> tuple[str, str, list[str]]:
+# The Fuel models worlds written for Gazebo Sim include most (Gazebo's own
+# examples write them inline; turtlebot3_gazebo's worlds include the Ground
+# Plane in 7 files, the Sun in 3), by (owner, name) in lower case:
+# stand-ins written here (mfi_drake/models/fuel, each what Fuel's holds: a
+# light; an upward plane at z = 0), read where no Fuel cache holds the
+# model (a machine without Gazebo, or one that never went online).
+FUEL_STAND_INS = {
+    ("openrobotics", "sun"): "sun",
+    ("openrobotics", "ground plane"): "ground_plane",
+}
+STAND_INS = os.path.join(os.path.dirname(os.path.dirname(__file__)), "models", "fuel")
+
+
+def fuel_folders(uri: str, where: str) -> tuple[str, str, list[str], str]:
     """A Fuel URI (https://HOST/1.0/OWNER/models/NAME[/VERSION][/files/PATH]):
-    the model's name, the PATH in it, and its folders in Gazebo's Fuel caches
-    (GZ_FUEL_CACHE_PATH, ~/.gz/fuel, ~/.ignition/fuel)."""
+    the model's name, the PATH in it, its folders in Gazebo's Fuel caches
+    (GZ_FUEL_CACHE_PATH, ~/.gz/fuel, ~/.ignition/fuel), and the folder of
+    this project's stand-in for it ("" for none: `FUEL_STAND_INS`)."""
     parts = [unquote(p) for p in uri.split("://", 1)[1].split("/")]
     if len(parts) < 5 or parts[3].lower() != "models":
         raise ValueError(f"{where}: {uri}: not a Fuel model's URI")
@@ -87,7 +101,8 @@ def fuel_folders(uri: str, where: str) -> tuple[str, str, list[str]]:
         for r in roots
         if r
     ]
-    return name, inner, cached
+    stand_in = FUEL_STAND_INS.get((owner.lower(), name.lower()))
+    return name, inner, cached, os.path.join(STAND_INS, stand_in) if stand_in else ""
 
 
 def newest_version(folder: str) -> str:

@@ -129,6 +129,7 @@ class Prepared:
     # (`world_files` fills it).
     pieces: dict = field(default_factory=dict)
     read_past: Counter = field(default_factory=Counter)
+    stand_ins: Counter = field(default_factory=Counter)  # Fuel models, by name
     unknown: Counter = field(default_factory=Counter)
     starts: list[list[int]] = field(default_factory=list)  # each element's line
     sources: list[list[str]] = field(default_factory=list)  # its "file:line"
@@ -145,7 +146,14 @@ class Prepared:
         if self.unknown:
             names = ", ".join(f"{k} ({n}×)" for k, n in sorted(self.unknown.items()))
             said += ("; " if said else "") + f"what SDFormat does not define: {names}"
-        return f"read past {said}" if said else ""
+        said = f"read past {said}" if said else ""
+        if self.stand_ins:
+            names = ", ".join(repr(k) for k in sorted(self.stand_ins))
+            said += (
+                f"{'; ' if said else ''}Fuel's {names} not downloaded: "
+                "mfi_drake's stand-in read (Gazebo's shape)"
+            )
+        return said
 
 
 def pose_matrix(element: ET.Element | None, where: str) -> RigidTransform:
@@ -364,11 +372,14 @@ class _Reader:
             found = [find_package(name, folders)]
             what = f"package {name!r} ({uri})"
         elif scheme in ("http", "https"):
-            name, inner, cached = fuel_folders(uri, where)
+            name, inner, cached, stand_in = fuel_folders(uri, where)
             folders = [*self.model_folders(folder), *cached]
             found = [os.path.join(f, name) for f in self.model_folders(folder)]
             found += [newest_version(f) for f in cached]
             what = f"Fuel model {name!r} ({uri}; Gazebo downloads it)"
+            if stand_in and not any(os.path.isdir(f) for f in found if f):
+                self.out.stand_ins[name] += 1
+                found.append(stand_in)
         else:
             raise ValueError(f"{where}: {uri}: {scheme}:// is not read")
         for base in found:
