@@ -306,7 +306,9 @@ def test_a_mujoco_scene_is_its_geoms(tmp_path):
         "arm": (sc.Capsule(radius=0.2, length=2.0), [10, -0.8, 1.2], 0),
     }
     found = {o.name.split("geometry ")[1].strip("'"): o for o in scenario.obstacles}
-    crate = found.pop("crate")  # a mesh: its hull, the crate's 1 m cube
+    # A mesh: its hull, one piece (named as a world file's mesh pieces are),
+    # the crate's 1 m cube.
+    crate = found.pop("crate' piece 0")
     np.testing.assert_allclose(
         _corners([crate]), _cube([2, -1.5, 1], np.radians(20)), atol=1e-9
     )

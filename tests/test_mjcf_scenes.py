@@ -136,3 +136,57 @@ def test_visual_geoms_and_their_missing_meshes_are_read_past(tmp_path):
     # The plane through y = 5 faces -y (z turned by roll 90°): the slab
     # lies beyond it, its centre 5 m further along +y.
     np.testing.assert_allclose(slab.position, [0, 10, 0], atol=1e-9)
+
+
+def _ascii_stl(path, vertices, triangles) -> None:
+    facets = "".join(
+        "facet normal 0 0 0\nouter loop\n"
+        + "".join(f"vertex {x} {y} {z}\n" for x, y, z in vertices[list(t)])
+        + "endloop\nendfacet\n"
+        for t in triangles
+    )
+    path.write_text(f"solid s\n{facets}endsolid s\n")
+
+
+def test_a_collision_mesh_flies_as_its_convex_hull_scaled_as_mujoco_reads_it(
+    tmp_path,
+):
+    """MuJoCo collides with a mesh's convex hull. A tetrahedron STL (Drake's
+    MJCF parser reads OBJ only) in `meshdir`, scaled by its own scale
+    (1, 1, 3), which replaces its default class's (2, 2, 2), at its geom's
+    pos (in its body's frame): the
+    obstacle is the hull of those vertices, where the geom puts it; a
+    point inside the hull (the tetrahedron's centroid) adds no vertex."""
+    tetra = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.2, 0.2, 0.2]])
+    (tmp_path / "meshes").mkdir()
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    _ascii_stl(tmp_path / "meshes" / "tetra.stl", tetra, faces)
+    (tmp_path / "scene.xml").write_text(
+        textwrap.dedent("""\
+        <mujoco model="m">
+          <compiler meshdir="meshes"/>
+          <default><mesh scale="2 2 2"/></default>
+          <asset><mesh file="tetra.stl" scale="1 1 3"/></asset>
+          <worldbody>
+            <body pos="4 1 0"><geom type="mesh" mesh="tetra" pos="0 0 0.5"/></body>
+          </worldbody>
+        </mujoco>
+        """)
+    )
+    (tmp_path / "s.yaml").write_text(f"{HEAD}world: scene.xml\n")
+    (hull,) = load_scenario(str(tmp_path / "s.yaml")).obstacles
+    corners = np.asarray(hull.shape.vertices) + hull.position
+    expected = tetra[:4] * [1, 1, 3] + [4, 1, 0.5]
+    assert len(corners) == 4
+    np.testing.assert_allclose(
+        sorted(corners.tolist()), sorted(expected.tolist()), atol=1e-12
+    )
+
+
+def test_a_mesh_geom_naming_no_asset_is_one_line(tmp_path):
+    (tmp_path / "scene.xml").write_text(
+        '<mujoco><worldbody><geom type="mesh" mesh="gone"/></worldbody></mujoco>'
+    )
+    (tmp_path / "s.yaml").write_text(f"{HEAD}world: scene.xml\n")
+    with pytest.raises(sc.ScenarioError, match="names no mesh asset .'gone'."):
+        load_scenario(str(tmp_path / "s.yaml"))

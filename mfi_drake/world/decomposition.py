@@ -242,6 +242,21 @@ def _warm(path: str, scale) -> list[np.ndarray] | None:
     return None
 
 
+def hull_pieces(meshes: list[tuple[str, object]]) -> dict:
+    """The convex hull of each mesh file of `meshes` ((path, scale) pairs)
+    as its one piece, by `mesh_key`: what MuJoCo collides with. None for a
+    mesh that cannot be read (`mesh_obstacles` names why) or has no hull
+    (flat: decomposed into slabs instead)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    pieces = {}
+    for key in dict.fromkeys(mesh_key(p, s) for p, s in meshes):
+        with contextlib.suppress(ValueError, QhullError):
+            vertices = read_mesh(key[0])[0] * np.asarray(key[1])
+            pieces[key] = [vertices[ConvexHull(vertices).vertices]]
+    return pieces
+
+
 def prefetch_pieces(meshes: list[tuple[str, object]]) -> dict:
     """The pieces of the mesh files of `meshes` ((path, scale) pairs), by
     `mesh_key`, decomposed at once, a process a core, and cached; none

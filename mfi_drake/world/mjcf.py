@@ -8,11 +8,14 @@
   make it a half space, and a half space among many geometries crashes
   SceneGraph (Drake #19263, docs/big_scenes.md);
 - a geom that collides with nothing (`contype` and `conaffinity` 0, written
-  or from its default class: MuJoCo Menagerie's visual meshes) is left out,
-  and so is every mesh asset no geom left uses, so that a visual mesh that
-  is missing or in a format Drake does not read never blocks loading;
-- the folder it reads meshes from (`<compiler meshdir assetdir>`) made
-  absolute, since Drake reads the rewritten text, not the file.
+  or from its default class: MuJoCo Menagerie's visual meshes) is left out;
+- a mesh geom becomes a placeholder box marked as a mesh, its file (from
+  `<compiler meshdir assetdir>`, as MuJoCo reads it) and scale (the
+  asset's, else its default class's) listed: `world_files` flies its
+  convex hull, which is what MuJoCo collides with, read by this project's
+  mesh reader (STL, OBJ and the others: Drake's MJCF parser reads OBJ
+  only). So every mesh asset is left out, and a visual mesh that is missing
+  or in a format nobody reads never blocks loading.
 """
 
 import os
@@ -44,15 +47,15 @@ def _inline(root: ET.Element, origins: dict, folder: str, chain: list[str]) -> N
             parent[k : k + 1] = list(inner)
 
 
-def _defaults(root: ET.Element) -> dict[str, dict]:
-    """Each default class's geom attributes, inherited from the classes it
-    nests in (the top class is "main")."""
+def _defaults(root: ET.Element, tag: str) -> dict[str, dict]:
+    """Each default class's attributes of element `tag` (geom, mesh),
+    inherited from the classes it nests in (the top class is "main")."""
     classes: dict[str, dict] = {}
 
     def walk(default: ET.Element, inherited: dict) -> None:
         attributes = dict(inherited)
-        for geom in default.findall("geom"):
-            attributes.update(geom.attrib)
+        for element in default.findall(tag):
+            attributes.update(element.attrib)
         classes[default.get("class", "main")] = attributes
         for inner in default.findall("default"):
             walk(inner, attributes)
@@ -72,36 +75,50 @@ def _geoms(element: ET.Element, childclass: str):
             yield from _geoms(child, child.get("childclass", childclass))
 
 
-def _absolute_folders(root: ET.Element, folder: str) -> None:
-    """The folder meshes are read from, absolute, in one `<compiler>`:
-    MuJoCo reads a mesh from `meshdir`, else `assetdir`, else the main
-    file's folder, each relative to that folder."""
+def _mesh_folder(root: ET.Element, folder: str) -> str:
+    """The folder MuJoCo reads meshes from: `meshdir`, else `assetdir`,
+    else the main file's folder, each relative to that folder; the
+    `<compiler>` folders are removed (Drake reads no mesh and no texture
+    of the rewritten text)."""
     said: dict[str, str] = {}
     for compiler in root.findall("compiler"):
         said.update(
             {k: compiler.attrib.pop(k) for k in _FOLDERS if k in compiler.attrib}
         )
     assets = os.path.join(folder, said.get("assetdir", ""))
-    compiler = root.find("compiler")
-    if compiler is None:
-        compiler = ET.Element("compiler")
-        root.insert(0, compiler)
-    # Textures are not read: Drake's parser warns at a `texturedir`.
     meshes = said.get("meshdir")
-    compiler.set("meshdir", os.path.join(assets, meshes) if meshes else assets)
+    return os.path.join(assets, meshes) if meshes else assets
+
+
+def _mesh_assets(root: ET.Element, folder: str) -> dict[str, tuple[str, list]]:
+    """Each mesh asset by name (its file's name less the suffix where it has
+    none): (its file, its scale per axis), every mesh asset removed."""
+    classes = _defaults(root, "mesh")
+    meshes = {}
+    for asset in root.findall("asset"):
+        for mesh in asset.findall("mesh"):
+            inherited = classes.get(mesh.get("class", "main"), {})
+            file = mesh.get("file", inherited.get("file", ""))
+            name = mesh.get("name") or os.path.splitext(os.path.basename(file))[0]
+            scale = mesh.get("scale", inherited.get("scale", "1 1 1")).split()
+            meshes[name] = (os.path.join(folder, file) if file else "", scale)
+            asset.remove(mesh)
+    return meshes
 
 
 def rewrite_mjcf(
     path: str, root: ET.Element, origins: dict
-) -> tuple[str, list[tuple[list[float], str]], int]:
+) -> tuple[str, list, list, int]:
     """The MJCF file `path` (parsed: `root`, `origins`) rewritten as the
     module says: (its text, each plane's normal in its geom's frame and
-    "file:line", how many geoms that collide with nothing were left out).
-    Raises ValueError, one line naming the file and line."""
+    "file:line", each mesh's (file, scale per axis, "file:line"), how many
+    geoms that collide with nothing were left out). Raises ValueError, one
+    line naming the file and line."""
     folder = os.path.dirname(os.path.abspath(path))
     _inline(root, origins, folder, [os.path.abspath(path)])
-    classes = _defaults(root)
-    planes, visual, used = [], 0, set()
+    classes = _defaults(root, "geom")
+    assets = _mesh_assets(root, _mesh_folder(root, folder))
+    planes, meshes, visual = [], [], 0
     for worldbody in root.findall("worldbody"):
         for parent, geom, kind in list(_geoms(worldbody, "main")):
             inherited = classes.get(kind, classes.get("main", {}))
@@ -121,15 +138,33 @@ def rewrite_mjcf(
                     name=f"__mfi_plane_{len(planes)}__{name}",
                 )
                 planes.append(([0.0, 0.0, 1.0], origins.get(geom, path)))
-            if get("mesh", ""):
-                used.add(get("mesh", ""))
-    for asset in root.findall("asset"):
-        for mesh in asset.findall("mesh"):
-            name = (
-                mesh.get("name")
-                or os.path.splitext(os.path.basename(mesh.get("file", "")))[0]
-            )
-            if name not in used:
-                asset.remove(mesh)
-    _absolute_folders(root, folder)
-    return ET.tostring(root, encoding="unicode"), planes, visual
+            elif get("type", "sphere") == "mesh":
+                meshes.append(_mesh(geom, get("mesh", ""), assets, origins, path))
+                geom.attrib.pop("mesh", None)
+                geom.attrib.update(
+                    type="box",
+                    size="0.5 0.5 0.5",
+                    name=f"__mfi_mesh_{len(meshes) - 1}__{geom.get('name', 'mesh')}",
+                )
+    return ET.tostring(root, encoding="unicode"), planes, meshes, visual
+
+
+def _mesh(geom: ET.Element, name: str, assets: dict, origins: dict, path: str) -> tuple:
+    """(file, scale per axis, "file:line") of a mesh geom's asset `name`."""
+    where = origins.get(geom, path)
+    if name not in assets:
+        raise ValueError(f"{where}: a mesh geom names no mesh asset ({name!r})")
+    file, scale = assets[name]
+    if not file:
+        raise ValueError(
+            f"{where}: mesh {name!r} has no file (inline vertices are not read)"
+        )
+    try:
+        numbers = [float(x) for x in scale]
+    except ValueError:
+        numbers = []
+    if len(numbers) != 3:
+        raise ValueError(
+            f"{where}: mesh {name!r}: scale {' '.join(scale)!r} is not 3 numbers"
+        )
+    return file, numbers, where

@@ -484,8 +484,8 @@ def prepare(path: str, model_paths: list[str]) -> Prepared:
     root, origins = read_xml(path)
     rules = {"sdf": SDF, "robot": URDF}.get(root.tag)
     if root.tag == "mujoco":
-        text, planes, visual = rewrite_mjcf(path, root, origins)
-        out = Prepared(texts=[text], kind="mjcf", planes=planes)
+        text, planes, meshes, visual = rewrite_mjcf(path, root, origins)
+        out = Prepared(texts=[text], kind="mjcf", planes=planes, meshes=meshes)
         out.read_past["visual"] = visual
         return out
     if rules is None:

@@ -39,6 +39,7 @@ from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground
 from mfi_drake.config.worlds import ScenarioWarning, WorldPose
 from mfi_drake.world.decomposition import (
+    hull_pieces,
     mesh_obstacles,
     prefetch_pieces,
     with_meshes,
@@ -149,9 +150,11 @@ def world_obstacles(
     X_SW = X_SW if X_SW is not None else RigidTransform()
     prepared = prepare(path, list(model_paths))
     # Its meshes decomposed at once over the cores, into the cache that
-    # each geometry's `mesh_obstacles` reads below.
-    prepared.pieces = prefetch_pieces(
-        [(mesh, scale) for mesh, scale, _ in prepared.meshes]
+    # each geometry's `mesh_obstacles` reads below; a MuJoCo mesh collides
+    # as its convex hull, one piece.
+    meshes = [(mesh, scale) for mesh, scale, _ in prepared.meshes]
+    prepared.pieces = (hull_pieces if prepared.kind == "mjcf" else prefetch_pieces)(
+        meshes
     )
     heard = _DrakeWarnings()
     obstacles, grounds = [], []
@@ -254,8 +257,6 @@ def _obstacles(
         rpy_deg=[round(float(x), RPY_DECIMALS) + 0.0 for x in np.degrees(rpy.vector())],
         name=where,
     )
-    if isinstance(shape, Mesh) and prepared.kind == "mjcf":  # MuJoCo: its hull
-        shape = Convex(shape.source(), shape.scale3())
     mesh = mark and mark[1] == "mesh"
     if mesh or isinstance(shape, Mesh):
         path, scale, origin = (
