@@ -25,7 +25,7 @@ from .conftest import ROOT
 
 DATA = os.path.join(ROOT, "tests", "data", "meshes")
 MESHES = sorted(f for f in os.listdir(DATA) if f.endswith(MESH_SUFFIXES))
-CLOUDS = ["organized.pcd"]
+CLOUDS = ["organized.pcd", "survey.las"]
 FUZZ = settings(
     max_examples=150,
     deadline=None,
@@ -128,7 +128,7 @@ def test_mutated_clouds_read_or_fail_in_one_line(workdir, case):
 
 
 @FUZZ
-@given(st.sampled_from([".pcd", ".ply"]), st.binary(max_size=2048))
+@given(st.sampled_from([".pcd", ".ply", ".las", ".laz"]), st.binary(max_size=2048))
 def test_random_bytes_as_a_cloud_fail_in_one_line(workdir, suffix, data):
     _cloud_or_one_line(_write(workdir, "random" + suffix, data))
 

@@ -319,3 +319,23 @@ def test_the_figure_draws_the_map_as_points():
     ax_top = flights_figure(scenario, []).axes[1]
     drawn = ax_top.collections[0].get_offsets()
     np.testing.assert_array_equal(drawn, np.asarray(scenario.map_points)[:, :2])
+
+
+def test_las_and_laz_surveys_load_as_the_same_ply_map(tmp_path):
+    """An aerial survey's LAS (integers scaled by 1 mm about an offset) and
+    its LAZ (compressed) load as the points they store, thinned (an
+    upper-case suffix, as scanners write it, too)."""
+    import laspy
+
+    rng = np.random.default_rng(5)
+    points = np.round(rng.uniform([3, -2, 0], [6, 2, 3], (400, 3)), 3)
+    header = laspy.LasHeader(point_format=0, version="1.2")
+    header.scales, header.offsets = [0.001] * 3, [500000.0, 0.0, 0.0]
+    survey = laspy.LasData(header)
+    survey.x, survey.y, survey.z = points.T
+    survey.write(str(tmp_path / "map.LAS"))
+    survey.write(str(tmp_path / "map.laz"))
+    las = load_scenario(_mapped(tmp_path, name="map.LAS"))
+    laz = load_scenario(_mapped(tmp_path, name="map.laz"))
+    assert las.map_points == laz.map_points
+    np.testing.assert_allclose(las.map_points, downsample(points, 0.05), atol=1e-9)

@@ -47,7 +47,8 @@ FLEET_INTEGRATIONS = ("separate", "one")
 # the design card's diagram of LeafSystems; "compiled", the same maths in
 # one compiled system.
 ENGINES = ("systems", "compiled")
-MAP_SUFFIXES = (".ply", ".pcd")  # a `world:` that is a point-cloud map
+# A `world:` that is a point-cloud map (any case: scanners write ".LAS").
+MAP_SUFFIXES = (".ply", ".pcd", ".las", ".laz")
 
 
 class ScenarioError(ValueError):
@@ -494,7 +495,7 @@ def _check_map(where: str, scenario: Scenario) -> None:
     if not (whole and np.isfinite(points).all()):
         for i, point in enumerate(scenario.map_points):
             _check_vector(where, f"map_points[{i}]", point)
-    if not (scenario.map_points or scenario.world.endswith(MAP_SUFFIXES)):
+    if not (scenario.map_points or scenario.world.lower().endswith(MAP_SUFFIXES)):
         return
     value = scenario.world or f"{len(scenario.map_points)} map_points"
     beside = {

@@ -1,5 +1,6 @@
-"""Point-cloud maps as a scenario's `world:`: a recorded cloud (PLY or PCD)
-read with a maintained reader (plyfile, pypcd4), checked, and thinned to
+"""Point-cloud maps as a scenario's `world:`: a recorded cloud (PLY, PCD, or
+an aerial survey's LAS or LAZ) read with a maintained reader (plyfile,
+pypcd4, laspy with lazrs), checked, and thinned to
 `Scenario.map_voxel` (`maths.point_maps.downsample`). Loading puts the
 thinned points inline in `Scenario.map_points` and empties `world`, so the
 scenario that travels (as YAML, to a sweep's workers) carries the points,
@@ -24,19 +25,26 @@ from mfi_drake.world.obstacles import obstacle_triangles
 
 
 def read_cloud(path: str) -> tuple[np.ndarray, int]:
-    """((n, 3) float64: the x, y, z of every finite point of the PLY or PCD
-    file `path`, how many points were not finite and are left out). Raises
+    """((n, 3) float64: the x, y, z of every finite point of the PLY, PCD,
+    LAS or LAZ file `path` (LAS: its scaled coordinates, in the file's
+    units), how many points were not finite and are left out). Raises
     ValueError, one line, for a file that is missing, unreadable, without
     x, y, z, or without a finite point."""
     if not os.path.isfile(path):
         raise ValueError(f"no such file ({path})")
     try:
+        suffix = os.path.splitext(path)[1].lower()
         with bounded_memory(path):
-            if path.endswith(".ply"):
+            if suffix == ".ply":
                 from plyfile import PlyData  # imported here: only a map pays
 
                 vertex = PlyData.read(path)["vertex"]
                 points = np.column_stack([vertex[k] for k in "xyz"])
+            elif suffix in (".las", ".laz"):
+                import laspy
+
+                survey = laspy.read(path)
+                points = np.column_stack([survey.x, survey.y, survey.z])
             else:
                 from pypcd4 import PointCloud
 

@@ -140,7 +140,7 @@ def world_obstacles(
     includes. Raises ValueError, one line naming the file (and the line
     of the cause), for a file that is missing, unparsable, or has a
     geometry of no obstacle shape, or that holds no collision geometry."""
-    if not path.endswith(WORLD_SUFFIXES):
+    if not path.lower().endswith(WORLD_SUFFIXES):
         raise ValueError(
             "must be a Gazebo world or model (.world, .sdf), a URDF (.urdf), "
             "an MJCF (.xml) file, or a point-cloud map (.ply, .pcd)"
@@ -294,7 +294,7 @@ def with_files(scenario: sc.Scenario, where: str) -> sc.Scenario:
     the file."""
     pose = scenario.world_pose
     X_SW = RigidTransform(RollPitchYaw(np.radians(pose.rpy_deg)), pose.position)
-    if scenario.world.endswith(sc.MAP_SUFFIXES):
+    if scenario.world.lower().endswith(sc.MAP_SUFFIXES):
         scenario = with_map(scenario, where)
         points = _placed(scenario.map_points, X_SW)
         scenario = dataclasses.replace(
