@@ -5,7 +5,7 @@ approach (`user_field:field_near_goals`)."""
 
 import numpy as np
 
-from mfi_drake.maths.fields import with_terminal_approach
+from mfi_drake.maths.terminal import with_terminal_approach
 
 
 def field(position, velocity, obstacle_points, goal):

@@ -20,7 +20,7 @@ from mfi_drake.config.scenario import ScenarioError
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.methods import user_method
 from mfi_drake.flight.simulation import simulate
-from mfi_drake.maths import fields
+from mfi_drake.maths import fields, terminal
 from mfi_drake.maths.layout import obstacle_signal
 from mfi_drake.world import generator
 from mfi_drake.world.goal_scenes import GOAL, goal_scene, without_terminal_approach
@@ -56,27 +56,27 @@ P = NavigatorParams()  # zone r_gl = 1 m, reach r_l = 1.5 m
 def test_weight_is_zero_near_a_goal_the_tangent_plane_leaves_clear():
     r_o = (R + 0.5) * EX  # a wall 0.5 m ahead (grown)
     # The goal 0.3 m ahead: g = 0.2 m this side of the plane, |r_g| < r_gl/2.
-    assert fields.terminal_weight(r_o, 0.3 * EX, R, P) == 0.0
+    assert terminal.terminal_weight(r_o, 0.3 * EX, R, P) == 0.0
     # Off, beyond r_gl, or with the goal 0.3 m beyond the plane: whole terms.
     off = dataclasses.replace(P, terminal_approach=False)
-    assert fields.terminal_weight(r_o, 0.3 * EX, R, off) == 1.0
-    assert fields.terminal_weight(r_o, 0.6 * EY + 0.9 * EX, R, P) == 1.0
-    assert fields.terminal_weight(r_o, 0.8 * EX, R, P) == 1.0
+    assert terminal.terminal_weight(r_o, 0.3 * EX, R, off) == 1.0
+    assert terminal.terminal_weight(r_o, 0.6 * EY + 0.9 * EX, R, P) == 1.0
+    assert terminal.terminal_weight(r_o, 0.8 * EX, R, P) == 1.0
 
 
 def test_weight_between_is_one_less_the_ramps_times_the_smoothstep():
     r_o = (R + 0.5) * EX
     # |r_g| = 0.75: half-way through the zone, smoothstep 1/2; g = 0.5 ≥ 0.
-    assert fields.terminal_weight(r_o, 0.75 * EY, R, P) == pytest.approx(0.5)
+    assert terminal.terminal_weight(r_o, 0.75 * EY, R, P) == pytest.approx(0.5)
     # g = 0.5 − 0.525 = −0.025: half the slack, the fade weighs 1/2.
     x = (0.525 - 0.5) / 0.5
     s = x * x * (3 - 2 * x)
-    assert fields.terminal_weight(r_o, 0.525 * EX, R, P) == pytest.approx(
+    assert terminal.terminal_weight(r_o, 0.525 * EX, R, P) == pytest.approx(
         1 - 0.5 * (1 - s)
     )
     # g = 1.3 m: on the reach's ramp (1 at r_l/2 = 0.75, 0 at r_l = 1.5).
     r_o = (R + 1.6) * EX
-    assert fields.terminal_weight(r_o, 0.3 * EX, R, P) == pytest.approx(
+    assert terminal.terminal_weight(r_o, 0.3 * EX, R, P) == pytest.approx(
         1 - (1.5 - 1.3) / 0.75
     )
 
@@ -88,7 +88,7 @@ def test_superposed_weighs_each_obstacle_and_the_terms_do_no_work():
     A, B = fields.superposed(
         fields.obstacle_field, v, obstacle_signal(points), r_g, R, P
     )
-    weights = [fields.terminal_weight(r_o, r_g, R, P) for r_o in points]
+    weights = [terminal.terminal_weight(r_o, r_g, R, P) for r_o in points]
     assert weights[0] == 1.0 and 0.2 < weights[1] < 0.5  # by hand: 0.37
     terms = [fields.obstacle_field(v, r_o, 1.0, r_g, R, P) for r_o in points]
     np.testing.assert_allclose(
@@ -203,7 +203,7 @@ def readme_field(position, velocity, obstacle_points, goal, push=0.5):
 
 
 readme_field.gains = {"push": (0.1, 2.0)}
-WRAPPED = fields.with_terminal_approach(readme_field, R)
+WRAPPED = terminal.with_terminal_approach(readme_field, R)
 
 
 def test_the_wrapper_weighs_each_obstacle_term_of_a_users_field():
@@ -211,7 +211,8 @@ def test_the_wrapper_weighs_each_obstacle_term_of_a_users_field():
     points = np.array([(R + 0.4) * EX, (R + 0.3) * EY])
     r_g = goal - p
     weights = [
-        fields.terminal_weight(r_o, r_g, R, fields.TerminalApproach()) for r_o in points
+        terminal.terminal_weight(r_o, r_g, R, terminal.TerminalApproach())
+        for r_o in points
     ]
     assert weights[0] == 1.0 and weights[1] < 0.1  # the plane ahead: goal behind
     free = readme_field(p, v, points[:0], goal)

@@ -22,12 +22,14 @@ from mfi_drake.studies.records import read_results
 from mfi_drake.studies.tune import (
     TuneConfig,
     TuneError,
-    gain_values,
-    latin_hypercube,
-    override_text,
     training_fields,
     tune,
     tune_held_out,
+)
+from mfi_drake.studies.tune_search import (
+    gain_values,
+    latin_hypercube,
+    override_text,
     unit_point,
 )
 

@@ -29,10 +29,11 @@ from mfi_drake.app.flight_commands import (
     add_reproduce,
     add_run,
 )
-from mfi_drake.app.study_commands import add_scene, add_sweep, add_tune
+from mfi_drake.app.scene_command import add_scene
+from mfi_drake.app.study_commands import add_sweep, add_tune
 from mfi_drake.config.scenario import ScenarioError
 from mfi_drake.flight.methods import MethodError
-from mfi_drake.systems.navigation import UserFieldError
+from mfi_drake.systems.user_field import UserFieldError
 from mfi_drake.world.validation import ScenarioWarning
 
 

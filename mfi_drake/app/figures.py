@@ -67,23 +67,34 @@ def _static_triangles(scenario: Scenario) -> np.ndarray:
     return np.concatenate(still) if still else np.zeros((0, 3, 3))
 
 
+def _obstacle_layers(ax, scenario: Scenario, times, still, shades, dims: int) -> list:
+    """The obstacles of `draw_obstacles` (`dims` 3) or `draw_footprints` (2)
+    as (triangles, shade): the still ones (shades[0]) and each moving one at
+    times[0] and times[-1] (shades[1], shades[2]); drawn here, each mover's
+    centre path over `times` dashed and a point-cloud map as a light
+    scatter."""
+    if scenario.map_points:
+        behind = {"zorder": 0} if dims == 2 else {}
+        ax.scatter(*map_drawn(scenario)[:, :dims].T, **behind, **MAP_STYLE)
+    still = _static_triangles(scenario) if still is None else still
+    drawn = [(still, shades[0])] if len(still) else []
+    for obstacle in filter(lambda o: moves(o.motion), scenario.obstacles):
+        drawn += [
+            (obstacle_triangles(scenario, obstacle, times[0]), shades[1]),
+            (obstacle_triangles(scenario, obstacle, times[-1]), shades[2]),
+        ]
+        centres = obstacle_position(obstacle, np.asarray(times))
+        ax.plot(*centres[:, :dims].T, color="grey", ls="--", lw=0.8)
+    return drawn
+
+
 def draw_obstacles(ax, scenario: Scenario, times=(0.0,), still=None) -> None:
     """The obstacles at times[0] and, those that move, at times[-1] too (the
     first faint) with their centre's path over `times` dashed; a
     point-cloud map as a light scatter. `still`: `_static_triangles`, if
     already computed."""
-    if scenario.map_points:
-        ax.scatter(*map_drawn(scenario).T, **MAP_STYLE)
-    still = _static_triangles(scenario) if still is None else still
-    drawn = [(still, 0.35)] if len(still) else []
-    for obstacle in filter(lambda o: moves(o.motion), scenario.obstacles):
-        drawn += [
-            (obstacle_triangles(scenario, obstacle, times[0]), 0.12),
-            (obstacle_triangles(scenario, obstacle, times[-1]), 0.35),
-        ]
-        centres = obstacle_position(obstacle, np.asarray(times))
-        ax.plot(*centres.T, color="grey", ls="--", lw=0.8)
-    for triangles, alpha in drawn:
+    shades = (0.35, 0.12, 0.35)  # alphas
+    for triangles, alpha in _obstacle_layers(ax, scenario, times, still, shades, 3):
         ax.add_collection3d(
             Poly3DCollection(
                 triangles,
@@ -97,18 +108,8 @@ def draw_obstacles(ax, scenario: Scenario, times=(0.0,), still=None) -> None:
 def draw_footprints(ax, scenario: Scenario, times=(0.0,), still=None) -> None:
     """The top view of `draw_obstacles`: each obstacle's x–y footprint (its
     triangles projected, one flat colour so that overlaps do not darken)."""
-    if scenario.map_points:
-        ax.scatter(*map_drawn(scenario)[:, :2].T, zorder=0, **MAP_STYLE)
-    still = _static_triangles(scenario) if still is None else still
-    drawn = [(still, 0.78)] if len(still) else []
-    for obstacle in filter(lambda o: moves(o.motion), scenario.obstacles):
-        drawn += [
-            (obstacle_triangles(scenario, obstacle, times[0]), 0.9),
-            (obstacle_triangles(scenario, obstacle, times[-1]), 0.78),
-        ]
-        centres = obstacle_position(obstacle, np.asarray(times))
-        ax.plot(*centres[:, :2].T, color="grey", ls="--", lw=0.8)
-    for triangles, grey in drawn:
+    shades = (0.78, 0.9, 0.78)  # greys
+    for triangles, grey in _obstacle_layers(ax, scenario, times, still, shades, 2):
         colour = (grey, grey, grey + 0.03)
         ax.add_collection(
             PolyCollection(
@@ -167,6 +168,33 @@ def plot_flights(scenario: Scenario, flights: list, path: str, title: str = "") 
     write_figure(flights_figure(scenario, flights, title), path)
 
 
+def _draw_ends(ax3d, ax_top, scenario: Scenario) -> None:
+    """Every vehicle's start (a dot) and goal (a star) in the 3-D and the
+    top view; labelled once, in the 3-D view."""
+    ends = [(scenario.start, scenario.goal)] + [
+        (o.start, o.goal) for o in scenario.other_vehicles
+    ]
+    for k, (a, b) in enumerate(ends):
+        for ax, dims in ((ax3d, slice(0, 3)), (ax_top, slice(0, 2))):
+            ax.scatter(
+                *np.asarray(a)[dims],
+                color="black",
+                marker="o",
+                s=40,
+                zorder=5,
+                label="start" if k == 0 and ax is ax3d else None,
+            )
+            ax.scatter(
+                *np.asarray(b)[dims],
+                color="gold",
+                edgecolor="black",
+                marker="*",
+                s=160,
+                zorder=5,
+                label="goal" if k == 0 and ax is ax3d else None,
+            )
+
+
 def flights_figure(scenario: Scenario, flights: list, title: str = "") -> Figure:
     """The figure of one scenario flown by one or more methods: the 3-D view,
     the top (x–y) view, path length and position error."""
@@ -203,26 +231,7 @@ def flights_figure(scenario: Scenario, flights: list, title: str = "") -> Figure
             ax_len.plot(flown.times, length, **style)
             error = np.linalg.norm(p - np.asarray(flown.scenario.goal), axis=1)
             ax_err.plot(flown.times, error, **style)
-    ends = [(start, goal)] + [(o.start, o.goal) for o in scenario.other_vehicles]
-    for k, (a, b) in enumerate(ends):
-        for ax, dims in ((ax3d, slice(0, 3)), (ax_top, slice(0, 2))):
-            ax.scatter(
-                *a[dims],
-                color="black",
-                marker="o",
-                s=40,
-                zorder=5,
-                label="start" if k == 0 and ax is ax3d else None,
-            )
-            ax.scatter(
-                *np.asarray(b)[dims],
-                color="gold",
-                edgecolor="black",
-                marker="*",
-                s=160,
-                zorder=5,
-                label="goal" if k == 0 and ax is ax3d else None,
-            )
+    _draw_ends(ax3d, ax_top, scenario)
     points = np.vstack([np.atleast_2d(c) for c in corners])
     _equal_box(ax3d, points)
     if scenario.ground is not None:
@@ -256,6 +265,16 @@ def write_comparison_figure(scenario: Scenario, flights: list, path: str) -> Non
     plot_flights(scenario, flights, path, title=f"{scenario.name}: {names}")
 
 
+def _with_ci(ax, rows: list, key: str, **style) -> None:
+    """s[key] at x with its 95 % interval s[key + "_ci95"] as error bars,
+    for each (x, s) of `rows`."""
+    x = np.array([x for x, _ in rows])
+    value = np.array([s[key] for _, s in rows])
+    ci = np.array([s[f"{key}_ci95"] for _, s in rows])
+    yerr = [value - ci[:, 0], ci[:, 1] - value]
+    ax.errorbar(x, value, yerr=yerr, marker="o", capsize=3, **style)
+
+
 def plot_sweep(summary: dict, path: str) -> None:
     """Success rate and path ratio against density (or world class), one
     line per method."""
@@ -276,35 +295,15 @@ def plot_sweep(summary: dict, path: str) -> None:
             continue
         shift = dodge * (i - (len(methods) - 1) / 2)
         rows = [(x + shift, s) for x, s in rows]
-        d = np.array([x for x, _ in rows])
         label, colour = appearance(method)
-        rate = np.array([s["success_rate"] for _, s in rows])
-        ci = np.array([s["success_rate_ci95"] for _, s in rows])
-        ax_s.errorbar(
-            d,
-            rate,
-            yerr=[rate - ci[:, 0], ci[:, 1] - rate],
-            color=colour,
-            marker="o",
-            capsize=3,
-            label=label,
-        )
+        _with_ci(ax_s, rows, "success_rate", color=colour, label=label)
         ok = [(x, s) for x, s in rows if s["median_path_ratio"] is not None]
         if ok:
-            dr = np.array([x for x, _ in ok])
-            med = np.array([s["median_path_ratio"] for _, s in ok])
-            mci = np.array([s["median_path_ratio_ci95"] for _, s in ok])
-            ax_r.errorbar(
-                dr,
-                med,
-                yerr=[med - mci[:, 0], mci[:, 1] - med],
-                color=colour,
-                marker="o",
-                capsize=3,
-                label=f"{label} median",
+            _with_ci(
+                ax_r, ok, "median_path_ratio", color=colour, label=f"{label} median"
             )
             ax_r.plot(
-                dr,
+                [x for x, _ in ok],
                 [s["p90_path_ratio"] for _, s in ok],
                 color=colour,
                 ls=":",

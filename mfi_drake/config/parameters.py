@@ -86,7 +86,7 @@ class NavigatorParams:
     whose tangent plane at the closest point leaves the goal on the
     vehicle's side and within r_l of it: eq 20 then settles the vehicle at
     a goal near a surface instead of hovering where eq 14 balances it
-    (`fields.terminal_weight`, docs/goals.md)."""
+    (`terminal.terminal_weight`, docs/goals.md)."""
     # --- goal attraction, §IV-B -----------------------------------------
     K_omega: float = 1.5
     """Heading gain K_ω of eq 17 [kg/s]."""
@@ -242,7 +242,7 @@ class AttractionParams:
 
 
 class BaselineTerminal:
-    """The zone of a baseline's terminal approach (`fields.terminal_weight`):
+    """The zone of a baseline's terminal approach (`terminal.terminal_weight`):
     d* = k_d v_max / k_att, within which its attraction is eq 20's PD."""
 
     @property
@@ -267,7 +267,7 @@ class ApfParams(BaselineTerminal):
     d* = k_d v_max / k_att of the goal each obstacle's repulsion fades to
     zero at d*/2, for an obstacle whose tangent plane at the closest point
     leaves the goal on the vehicle's side and within ρ₀ of it
-    (`fields.terminal_weight`, docs/goals.md)."""
+    (`terminal.terminal_weight`, docs/goals.md)."""
 
     @property
     def terminal_reach(self) -> float:
@@ -299,7 +299,7 @@ class GfParams(BaselineTerminal):
     goal-distance factor fades the repulsion (IEEE T-RA 16(5), 2000), but
     only for an obstacle whose tangent plane at the closest point leaves
     the goal on the vehicle's side and within the obstacle's shell
-    (`fields.terminal_weight`, docs/goals.md). Off: the repulsion holds the
+    (`terminal.terminal_weight`, docs/goals.md). Off: the repulsion holds the
     vehicle short of a goal near a surface."""
 
     @property

@@ -10,7 +10,7 @@ run. A few helpers are swapped for their float forms:
 - so3's scalar functions that dispatch on the type for AutoDiffXd (`sqrt`,
   `cos`, `sin`, `floor`, `arccos`, `atan2`) become math's;
 - `so3.entries` is the identity: numba unpacks arrays and tuples alike;
-- `fields._zeros` and `fields._zero3` give float zeros;
+- `triples._zeros` and `triples._zero3` give float zeros;
 - `motion._length` is √(x² + y² + z²): numba's hypot takes two arguments
   (the two differ in the last bit);
 - `so3._value` (an AutoDiffXd's float) is the identity;
@@ -74,11 +74,15 @@ from mfi_drake.maths import (
     motion,
     quadcopter,
     so3,
+    terminal,
+    triples,
 )
 
 MODULES = (
     so3,
+    triples,
     layout,
+    terminal,
     fields,
     baselines,
     motion,

@@ -32,9 +32,7 @@ import numpy as np
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground
-from mfi_drake.config.vehicles import as_vehicle
-from mfi_drake.world.nonconvex import CLEARANCE, THICKNESS, box, wall, world_name
-from mfi_drake.world.obstacles import obstacle_distances
+from mfi_drake.world.nonconvex import THICKNESS, box, first_clear, wall, world_name
 
 KINDS = ("clutter", "floorplan")
 BENCHMARK_STREAM = 5  # after nonconvex's 4
@@ -187,28 +185,7 @@ def benchmark_world(
     if kind not in _DRAWS:
         raise ValueError(f"world = {kind!r}: must be one of {', '.join(KINDS)}")
     rng = np.random.default_rng([seed, index, BENCHMARK_STREAM, KINDS.index(kind)])
-    needed = as_vehicle(vehicle).collision_radius + CLEARANCE
-    if kind == "clutter":  # the slab's floor and ceiling are SLAB/2 away
-        needed = min(needed, SLAB / 2)
-    while True:
-        obstacles, ground, start, goal = _DRAWS[kind](rng)
-        scenario = sc.Scenario(
-            name=world_name(kind, seed, index),
-            start=[float(s) for s in start],
-            goal=[float(g) for g in goal],
-            duration=duration,
-            vehicle=vehicle,
-            sensor=sensor if sensor is not None else sc.SphereSensor(),
-            obstacles=obstacles,
-            ground=ground,
-        )
-        ends = [scenario.start, scenario.goal]
-        if min(obstacle_distances(scenario, ends)) >= needed:
-            return scenario
-
-
-def route_length(kind: str, scenario: sc.Scenario) -> float:
-    """A lower bound on the route's length: the straight line (clutter),
-    the Manhattan distance between the corner cells (floor plan)."""
-    d = np.subtract(scenario.goal, scenario.start)
-    return float(np.linalg.norm(d) if kind == "clutter" else math.fsum(abs(d)))
+    # The clutter slab's floor and ceiling are SLAB/2 away.
+    room = SLAB / 2 if kind == "clutter" else math.inf
+    name = world_name(kind, seed, index)
+    return first_clear(name, rng, _DRAWS[kind], vehicle, sensor, duration, room)

@@ -357,21 +357,42 @@ def sealed_room(seed: int, index: int, vehicle: str = "drake_default") -> sc.Sce
 
 
 def _first_clear(name, rng, draw, vehicle, sensor, duration) -> sc.Scenario:
-    """The first world of `draw(rng)` whose start and goal have the
-    vehicle's collision radius plus CLEARANCE of room."""
-    needed = as_vehicle(vehicle).collision_radius + CLEARANCE
-    while True:
+    """`first_clear` of a draw(rng) = (obstacles, on_ground, goal) started at
+    the origin, at GROUND_HEIGHT over the ground or FREE_HEIGHT without."""
+
+    def placed(rng):
         obstacles, on_ground, goal = draw(rng)
-        height = GROUND_HEIGHT if on_ground else FREE_HEIGHT
+        ground = Ground(height=0.0) if on_ground else None
+        start = [0.0, 0.0, GROUND_HEIGHT if on_ground else FREE_HEIGHT]
+        return obstacles, ground, start, goal
+
+    return first_clear(name, rng, placed, vehicle, sensor, duration)
+
+
+def first_clear(
+    name: str,
+    rng: np.random.Generator,
+    draw,
+    vehicle: str,
+    sensor: sc.Sensor | None,
+    duration: float,
+    room: float = math.inf,
+) -> sc.Scenario:
+    """The first world of `draw(rng)` = (obstacles, ground, start, goal)
+    whose start and goal have the vehicle's collision radius plus CLEARANCE
+    of room (at most `room` [m])."""
+    needed = min(as_vehicle(vehicle).collision_radius + CLEARANCE, room)
+    while True:
+        obstacles, ground, start, goal = draw(rng)
         scenario = sc.Scenario(
             name=name,
-            start=[0.0, 0.0, height],
+            start=[float(s) for s in start],
             goal=[float(g) for g in goal],
             duration=duration,
             vehicle=vehicle,
             sensor=sensor if sensor is not None else sc.SphereSensor(),
             obstacles=obstacles,
-            ground=Ground(height=0.0) if on_ground else None,
+            ground=ground,
         )
         if min(obstacle_distances(scenario, [scenario.start, scenario.goal])) >= needed:
             return scenario

@@ -124,6 +124,30 @@ def recomputed_zero_work_terms(flight: Flight, vehicle: Vehicle) -> dict:
     return {"F": F, "F_a": F_a, "F_gc": F_gc}
 
 
+def _realised_terms(flight: Flight, terms: dict, vehicle, params, attitude_K) -> dict:
+    """Each of the logged `terms` as the vehicle realises it: its horizontal
+    part through `attitude_response` with the attitude gains `attitude_K`
+    (default: the flight's), its vertical part at once."""
+    K_Ptheta, K_Dtheta = attitude_K or attitude_gains(vehicle, params)
+    J = np.asarray(vehicle.inertia)
+    # x is realised by pitch (axis 1), y by roll (axis 0).
+    a = np.array([K_Ptheta[1] / J[1], K_Ptheta[0] / J[0]])
+    b = np.array([K_Dtheta[1] / J[1], K_Dtheta[0] / J[0]])
+    names = list(terms)
+    horizontal = np.hstack([terms[k][:, 0:2] for k in names])
+    filtered = attitude_response(
+        flight.times,
+        horizontal,
+        np.zeros(horizontal.shape[1]),  # flights start level: no tilt force
+        np.tile(a, len(names)),
+        np.tile(b, len(names)),
+    )
+    return {
+        k: np.column_stack([filtered[:, 2 * i : 2 * i + 2], terms[k][:, 2]])
+        for i, k in enumerate(names)
+    }
+
+
 def cruise_report(flight: Flight, attitude_K=None) -> dict:
     """Power of the zero-work terms, cruise speed and heading along `flight`.
 
@@ -147,28 +171,11 @@ def cruise_report(flight: Flight, attitude_K=None) -> dict:
         float(np.abs(recomputed[k] - terms[k]).max()) for k in ZERO_WORK_TERMS
     )
 
-    K_Ptheta, K_Dtheta = attitude_K or attitude_gains(vehicle, params)
-    J = np.asarray(vehicle.inertia)
-    # x is realised by pitch (axis 1), y by roll (axis 0).
-    a = np.array([K_Ptheta[1] / J[1], K_Ptheta[0] / J[0]])
-    b = np.array([K_Dtheta[1] / J[1], K_Dtheta[0] / J[0]])
-    names = list(terms)
-    horizontal = np.hstack([terms[k][:, 0:2] for k in names])
+    realised_terms = _realised_terms(flight, terms, vehicle, params, attitude_K)
     applied = realised_force(flight, vehicle)
-    filtered = attitude_response(
-        t,
-        horizontal,
-        np.zeros(horizontal.shape[1]),  # flights start level: no tilt force
-        np.tile(a, len(names)),
-        np.tile(b, len(names)),
-    )
-    realised_terms = {
-        k: np.column_stack([filtered[:, 2 * i : 2 * i + 2], terms[k][:, 2]])
-        for i, k in enumerate(names)
-    }
     model_sum = sum(realised_terms.values())
     residual = np.linalg.norm(model_sum - applied, axis=1)
-    realised_power = {k: np.sum(realised_terms[k] * v, axis=1) for k in names}
+    realised_power = {k: np.sum(r * v, axis=1) for k, r in realised_terms.items()}
     lag_power = np.sum((applied - flight.log["navigation_force"]) * v, axis=1)
 
     speed = np.linalg.norm(v, axis=1)

@@ -32,6 +32,43 @@ from mfi_drake.studies.analysis.roa import (
 )
 
 
+def _hover_linearisation(scenario: Scenario, report: dict) -> np.ndarray:
+    """The closed loop linearised at hover in eq 21's PD mode: its modes,
+    the linearisation's error against finite differences and the hover
+    equilibrium's residual, added to `report`; returns the eigenvalues,
+    sorted by real then imaginary part."""
+    analysis = build_analysis_diagram(scenario, fields.MODE_PD)
+    x0 = analysis.state(hover_state(analysis.goal))
+    A = linearize_closed_loop(analysis, x0)
+    A_fd = finite_difference_jacobian(analysis.diagram, x0)
+    eigenvalues = np.linalg.eigvals(A)
+    eigenvalues = eigenvalues[np.lexsort((eigenvalues.imag, eigenvalues.real))]
+    report.update(hover_modes(eigenvalues))
+    report["linearize_vs_fd_max_error"] = float(np.abs(A - A_fd).max())
+    report["hover_equilibrium_residual"] = float(
+        np.abs(time_derivatives(analysis.diagram, x0)).max()
+    )
+    return eigenvalues
+
+
+def _reduced_model_roa(scenario: Scenario, report: dict) -> tuple:
+    """The region of attraction of `roa_sos`'s reduced model sampled along
+    36 rays, added to `report`; returns (the rays' angles, the boundary's
+    radius along each)."""
+    angles = np.linspace(0.0, 2 * np.pi, 36, endpoint=False)
+    boundary = reduced_model_boundary(scenario, angles)
+    report["roa_reduced_model_sampled"] = {
+        "radius": float(boundary.min()),
+        "units": report["roa_sos"]["units"],
+        "model": "the same reduced model as roa_sos",
+        "method": (
+            f"{len(angles)} rays in the (e, v) plane at θ = ω = 0, boundary "
+            "by bisection up to 100, RK4 5 ms for 40 s; converged = |x| < 1e-3"
+        ),
+    }
+    return angles, boundary
+
+
 def run_analysis(
     scenario: Scenario, roa_radii: tuple[float, ...] = (0.5, 2.0, 8.0, 32.0)
 ) -> tuple[dict, dict]:
@@ -52,18 +89,7 @@ def run_analysis(
     report["plant"] = plant
     report["controllability_rank"] = plant["controllability_rank"]
 
-    analysis = build_analysis_diagram(scenario, fields.MODE_PD)
-    x0 = analysis.state(hover_state(analysis.goal))
-    A = linearize_closed_loop(analysis, x0)
-    A_fd = finite_difference_jacobian(analysis.diagram, x0)
-    eigenvalues = np.linalg.eigvals(A)
-    eigenvalues = eigenvalues[np.lexsort((eigenvalues.imag, eigenvalues.real))]
-    report.update(hover_modes(eigenvalues))
-    report["linearize_vs_fd_max_error"] = float(np.abs(A - A_fd).max())
-    report["hover_equilibrium_residual"] = float(
-        np.abs(time_derivatives(analysis.diagram, x0)).max()
-    )
-
+    eigenvalues = _hover_linearisation(scenario, report)
     sweep = gain_sweep(scenario)
     report["gain_sweep"] = {
         gain: {
@@ -99,17 +125,7 @@ def run_analysis(
     directions = roa_directions()
     sampled = roa_sampled(scenario, radii, directions)
     report["roa_sampled"] = {k: v for k, v in sampled.items() if k != "outcomes"}
-    angles = np.linspace(0.0, 2 * np.pi, 36, endpoint=False)
-    boundary = reduced_model_boundary(scenario, angles)
-    report["roa_reduced_model_sampled"] = {
-        "radius": float(boundary.min()),
-        "units": report["roa_sos"]["units"],
-        "model": "the same reduced model as roa_sos",
-        "method": (
-            f"{len(angles)} rays in the (e, v) plane at θ = ω = 0, boundary "
-            "by bisection up to 100, RK4 5 ms for 40 s; converged = |x| < 1e-3"
-        ),
-    }
+    angles, boundary = _reduced_model_roa(scenario, report)
 
     series = {
         "eigenvalues": eigenvalues,
