@@ -49,7 +49,10 @@ def test_at_most_25_mb_in_all_and_2_mb_a_file(tracked):
 
 
 MAX_README_LINES = 300  # the README is a front door
-MAX_DOC_LINES = 400  # a docs page is a reference, not a diary
+# A docs page is a reference, not a diary; 400 lines left four pages
+# squeezed to exactly 400 (issue 52: "no cap is gamed"): 600 lets a page say
+# what it needs, and a page that needs more is two pages.
+MAX_DOC_LINES = 600
 
 
 def test_the_readme_and_every_docs_page_stay_short(tracked):
@@ -64,7 +67,7 @@ def test_the_readme_and_every_docs_page_stay_short(tracked):
             lines = sum(1 for _ in f)
         if lines > limit:
             long[page] = lines
-    assert not long, f"pages over their limit (README 300, others 400): {long}"
+    assert not long, f"pages over their limit (README 300, others 600): {long}"
 
 
 def test_every_public_name_is_in_the_api_reference_and_it_is_linked():
