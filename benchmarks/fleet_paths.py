@@ -16,7 +16,11 @@ flown at each size by:
       and one SceneGraph, N QuadrotorPlants, each registered in SceneGraph
       as its collision sphere (`VehicleSphere`) so that the others' sensors
       see it, each with the chain `add_navigation` adds, flown by one
-      Simulator with the scenario's integrator.
+      Simulator with the scenario's integrator;
+  (d) as (c), each vehicle's chain the compiled one (`FleetChain` of one
+      vehicle, what `engine: compiled` flies alone) in place of the
+      LeafSystems `add_navigation` adds: one Python system a vehicle for the
+      chain and one for its sensor, as a compiled `add_navigation` would add.
 
 Printed a row a (size, path): integrator steps, wall and CPU seconds per
 simulated second, the CPU ratio to (a) in the same run, and the outcomes:
@@ -37,8 +41,14 @@ readings are vehicles) is lost, and `mfi`'s escape rule is off
 (`methods.escape_off`): (c) flies the memoryless field, as
 `add_navigation` does among moving geometry.
 
---profile N: cProfile of (c)'s flight at N vehicles, the 20 costliest
-functions by own time.
+--profile N: cProfile of (c)'s flight at N vehicles (with --paths d,
+(d)'s), the 20 costliest functions by own time, and the systems' calcs by
+cumulative time.
+
+--overhead: what a Python LeafSystem a vehicle costs by itself: N systems
+of x' = u − x (12 states each, u from a constant source) against one
+system of the N × 12 states, each flown 20 s by the default integrator;
+printed: CPU µs per vehicle and derivative evaluation.
 """
 
 import argparse
@@ -60,17 +70,32 @@ from pydrake.geometry import Sphere as DrakeSphere
 from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import as_vehicle
-from mfi_drake.flight.builder import add_rotor_path, apply_simulator_config
-from mfi_drake.flight.chain import add_controller, add_logger, add_sensor, log_slices
+from mfi_drake.flight.builder import (
+    add_rotor_path,
+    apply_simulator_config,
+    place_quadrotor,
+)
+from mfi_drake.flight.chain import (
+    add_controller,
+    add_logger,
+    add_sensor,
+    log_slices,
+    own_geometry,
+)
 from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
+from mfi_drake.flight.fleet import add_velocity_estimators, chain_system, uses_estimate
+from mfi_drake.flight.methods import resolve_method
 from mfi_drake.flight.result import Flight, fleet_flight
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.flight.simulator import advance_timed
+from mfi_drake.maths.fleet import row_slices
 from mfi_drake.maths.layout import POSITION, STATE_SIZE
 from mfi_drake.systems.sensors import VEHICLE_RGBA
+from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
 from mfi_drake.world import generator
 from mfi_drake.world.fleets import random_pairs
 from mfi_drake.world.obstacles import sensed
@@ -128,8 +153,78 @@ def add_vehicle(builder, scene_graph, scenario: Scenario, plant, sphere, k: int)
     return logger
 
 
-def fly_drake_diagram(fleet: Scenario, profile: bool = False) -> Flight:
-    """(c): the fleet as one Drake diagram, flown by one Simulator."""
+class Decay(LeafSystem):
+    """x' = u − x: a LeafSystem's call and nothing else (--overhead)."""
+
+    def __init__(self, size: int):
+        super().__init__()
+        self.DeclareContinuousState(size)
+        self._u = self.DeclareVectorInputPort("u", size)
+
+    def DoCalcTimeDerivatives(self, context, derivatives):
+        x = context.get_continuous_state_vector().CopyToVector()
+        derivatives.get_mutable_vector().SetFromVector(self._u.Eval(context) - x)
+
+
+def overhead(n: int, systems: int) -> float:
+    """CPU µs per vehicle and derivative evaluation of n vehicles' Decay in
+    `systems` LeafSystems (1 or n)."""
+    builder = DiagramBuilder()
+    for _ in range(systems):
+        size = STATE_SIZE * n // systems
+        decay = builder.AddSystem(Decay(size))
+        source = builder.AddSystem(ConstantVectorSource(np.ones(size)))
+        builder.Connect(source.get_output_port(), decay.get_input_port())
+    simulator = Simulator(builder.Build())
+    simulator.Initialize()
+    start = time.process_time()
+    simulator.AdvanceTo(20.0)
+    cpu = time.process_time() - start
+    return 1e6 * cpu / simulator.get_integrator().get_num_derivative_evaluations() / n
+
+
+def add_compiled_vehicle(builder, scene_graph, scenario, plant, sphere, k: int):
+    """(d)'s vehicle k: its sphere sensor (ignoring its own sphere) and the
+    compiled chain of one vehicle, every system renamed "v{k}_NAME";
+    returns the logger of the chain's row."""
+    before = set(map(id, builder.GetSystems()))
+    method = resolve_method(METHOD)
+    vehicle = as_vehicle(scenario.vehicle)
+    state = plant.get_output_port(0)
+    sensor = builder.AddNamedSystem(
+        "sensor",
+        SphereSensorSystem(
+            scenario.sensor.radius,
+            moving=True,
+            ignore=own_geometry(scene_graph, (sphere.frame_id,)),
+        ),
+    )
+    builder.Connect(scene_graph.get_query_output_port(), sensor.GetInputPort("query"))
+    builder.Connect(state, sensor.GetInputPort("state"))
+    relative = uses_estimate(scenario, method)
+    chain = builder.AddNamedSystem(
+        "chain", chain_system(scenario, method, [scenario], True, relative)
+    )
+    builder.Connect(state, chain.GetInputPort("states"))
+    builder.Connect(sensor.GetOutputPort("obstacle"), chain.GetInputPort("scene"))
+    if relative:
+        estimate = scenario.relative_velocity
+        obstacle = sensor.GetOutputPort("obstacle")
+        add_velocity_estimators(builder, estimate, 1, state, obstacle, chain)
+    builder.Connect(
+        chain.GetOutputPort("rotor_forces"),
+        add_rotor_path(builder, vehicle, plant.get_input_port(0), True),
+    )
+    logger = LogVectorOutput(chain.GetOutputPort("rows"), builder, 0.0)
+    for system in builder.GetSystems():
+        if id(system) not in before:
+            system.set_name(f"v{k}_{system.get_name()}")
+    return logger
+
+
+def fly_drake_diagram(fleet: Scenario, compiled: bool, profile: bool = False):
+    """(c), or (d) where `compiled`: the fleet as one Drake diagram, flown
+    by one Simulator."""
     flown = [replace(s, other_vehicles=[]) for s in vehicle_scenarios(fleet)]
     vehicle = as_vehicle(fleet.vehicle)
     builder = DiagramBuilder()
@@ -149,26 +244,27 @@ def fly_drake_diagram(fleet: Scenario, profile: bool = False) -> Flight:
         )
         plants.append(plant)
         spheres.append(sphere)
+    add = add_compiled_vehicle if compiled else add_vehicle
     loggers = [
-        add_vehicle(builder, scene_graph, s, p, q, k)
+        add(builder, scene_graph, s, p, q, k)
         for k, (s, p, q) in enumerate(zip(flown, plants, spheres, strict=True))
     ]
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
+    simulator = Simulator(builder.Build())
     apply_simulator_config(fleet.simulator, simulator)
     context = simulator.get_mutable_context()
     for plant, s in zip(plants, flown, strict=True):
-        x0 = np.zeros(STATE_SIZE)
-        x0[POSITION] = s.start
-        plant.GetMyMutableContextFromRoot(context).SetContinuousState(x0)
+        place_quadrotor(plant, context, s.start)
     profiler = cProfile.Profile() if profile else None
     if profiler:
         profiler.enable()
     run = advance_timed(simulator, fleet.duration)
     if profiler:
         profiler.disable()
-        pstats.Stats(profiler).sort_stats("tottime").print_stats(20)
-    integrator = simulator.get_integrator()
+        stats = pstats.Stats(profiler)
+        stats.sort_stats("tottime").print_stats(20)
+        # Each system's share: its calcs' cumulative time.
+        stats.sort_stats("cumulative").print_stats(r"systems/|fleet_paths", 20)
+    slices = row_slices() if compiled else log_slices()
     flights = []
     for s, logger in zip(flown, loggers, strict=True):
         log = logger.FindLog(context)
@@ -180,10 +276,10 @@ def fly_drake_diagram(fleet: Scenario, profile: bool = False) -> Flight:
                 sensor="sphere",
                 collision_radius=vehicle.collision_radius,
                 times=log.sample_times().copy(),
-                log={name: data[:, sl] for name, sl in log_slices().items()},
+                log={name: data[:, sl] for name, sl in slices.items()},
                 wall_time=run.wall_time,
                 cpu_time=run.cpu_time,
-                integrator_steps=integrator.get_num_steps_taken(),
+                integrator_steps=simulator.get_integrator().get_num_steps_taken(),
             )
         )
     return fleet_flight(flights)
@@ -226,13 +322,22 @@ def main() -> None:
     parser.add_argument("--sizes", default="8,16,32")
     parser.add_argument("--seconds", type=float, default=8.0)
     parser.add_argument("--field-seed", type=int, default=0)
-    parser.add_argument("--paths", default="a,b,c")
+    parser.add_argument("--paths", default="a,b,c,d")
     parser.add_argument("--profile", type=int, default=0)
+    parser.add_argument("--overhead", action="store_true")
     args = parser.parse_args()
+    if args.overhead:
+        for n in (8, 16, 32):
+            print(
+                f"{n} vehicles: a LeafSystem each {overhead(n, n):.1f} µs, "
+                f"one for all {overhead(n, 1):.1f} µs a vehicle and evaluation"
+            )
+        return
     field = generator.random_field(args.field_seed, 0, 0.1)
     if args.profile:
         fleet = random_pairs(field, args.profile, args.field_seed, 0)
-        fly_drake_diagram(replace(fleet, duration=args.seconds), profile=True)
+        flown = replace(fleet, duration=args.seconds)
+        fly_drake_diagram(flown, args.paths == "d", profile=True)
         return
     paths = args.paths.split(",")
     print(
@@ -260,7 +365,10 @@ def main() -> None:
             separate = simulate(replace(fleet, fleet_integration="separate"), METHOD)
             row(n, "(b) separate", separate, reference)
         if "c" in paths:
-            row(n, "(c) one Drake diagram", fly_drake_diagram(fleet), reference)
+            row(n, "(c) one Drake diagram", fly_drake_diagram(fleet, False), reference)
+        if "d" in paths:
+            flight = fly_drake_diagram(fleet, True)
+            row(n, "(d) (c), compiled chains", flight, reference)
 
 
 if __name__ == "__main__":
