@@ -37,9 +37,12 @@ own that its sensor would ignore (only a MultibodyPlant body's is), so its
 own sphere would be its nearest obstacle. Seen through SceneGraph, the
 other vehicles are moving geometry: their velocities are estimated from
 the readings, as any moving obstacle's, the rule of the road (which
-readings are vehicles) is lost, and `mfi`'s escape rule is off
-(`methods.escape_off`): (c) flies the memoryless field, as
-`add_navigation` does among moving geometry.
+readings are vehicles) is lost, and `mfi`'s escape rule is off among
+moving geometry (`chain.navigator_of`). Every path flies
+`mfi-memoryless`: with "mfi", `add_navigation`'s diagram among moving
+geometry raises at Initialize ("'EscapeNavigator' object has no attribute
+'field'": `navigator_of`'s `relative_navigator` factory builds the escape
+navigator it has just turned off).
 
 --profile N: cProfile of (c)'s flight at N vehicles (with --paths d,
 (d)'s), the 20 costliest functions by own time, and the systems' calcs by
