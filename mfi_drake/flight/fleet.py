@@ -295,6 +295,30 @@ def add_velocity_estimators(
         )
 
 
+def true_rows(
+    builder: DiagramBuilder,
+    faults: Faults,
+    chain: FleetChain,
+    states,
+    scene_sensor: FleetSceneSensor | None,
+) -> OutputPort:
+    """The port of the rows to log: the chain's, or, where faults make the
+    chain read other states or readings than the true ones (a lone
+    vehicle's), `TrueRows`' with the truth put back."""
+    rows = chain.GetOutputPort("rows")
+    scene = scene_sensor is not None
+    if not (estimate_faulted(faults) or (scene and readings_faulted(faults))):
+        return rows
+    truth = builder.AddNamedSystem("true_rows", TrueRows(scene))
+    builder.Connect(rows, truth.GetInputPort("rows"))
+    builder.Connect(states.get_output_port(0), truth.GetInputPort("states"))
+    if scene:
+        builder.Connect(
+            scene_sensor.GetOutputPort("scene"), truth.GetInputPort("scene")
+        )
+    return truth.GetOutputPort("rows")
+
+
 class OneIntegratorFleet:
     """The diagram of the module docstring and its handles."""
 
@@ -366,17 +390,7 @@ class OneIntegratorFleet:
                 rotors.get_output_port(k),
                 add_rotor_path(builder, self.vehicle, plant.get_input_port(0), True),
             )
-        rows = chain.GetOutputPort("rows")
-        if estimate_faulted(faults) or (scene and readings_faulted(faults)):
-            truth = builder.AddNamedSystem("true_rows", TrueRows(scene))
-            builder.Connect(rows, truth.GetInputPort("rows"))
-            builder.Connect(states.get_output_port(0), truth.GetInputPort("states"))
-            if scene:
-                builder.Connect(
-                    self.scene_sensor.GetOutputPort("scene"),
-                    truth.GetInputPort("scene"),
-                )
-            rows = truth.GetOutputPort("rows")
+        rows = true_rows(builder, faults, chain, states, self.scene_sensor)
         # publish_period 0: the sink records once per integrator step.
         self.logger = LogVectorOutput(rows, builder, publish_period=0.0)
         self.logger.set_name("logger")
