@@ -209,6 +209,50 @@ def check_engine(scenario: Scenario, methods: list) -> None:
             )
 
 
+def uses_estimate(scenario: Scenario, method: Method) -> bool:
+    """Whether the chain reads obstacle velocities estimated from the
+    readings where obstacles move: with the relative velocity on, for every
+    method but a user's field (which gets the vehicle's own velocity)."""
+    navigator, _ = method_systems(scenario, method)
+    enabled = scenario.relative_velocity.enabled
+    return enabled and not isinstance(navigator, UserFieldNavigator)
+
+
+def chain_system(
+    scenario: Scenario, method: Method, flown: list, scene: bool, relative: bool
+) -> FleetChain:
+    """The `FleetChain` flying `method` for the vehicles `flown` (their
+    scenarios, `vehicle_scenarios`) with `scenario`'s gains: its input
+    "scene" where `scene`, "obstacle_velocity" where `relative`."""
+    vehicle = as_vehicle(scenario.vehicle)
+    navigator, selector = method_systems(scenario, method)
+    user = navigator if isinstance(navigator, UserFieldNavigator) else None
+    attract = baselines.attraction_terms  # the goal part of the baselines,
+    if isinstance(selector, GoalAttractionSelector):  # MFI's
+        attract = fields.goal_terms
+    elif user is not None:  # a user's field (its F_n, `PassThroughGoal`)
+        attract = fleet.no_goal_terms
+    estimate = scenario.relative_velocity
+    gains = for_vehicle(scenario.navigator, vehicle)
+    return FleetChain(
+        [s.goal for s in flown],
+        fields.obstacle_field if user else field_of(navigator),
+        attract,
+        gains if user else navigator.params,
+        gains,
+        vehicle,
+        scenario.sensor.radius,
+        estimate.keep_right,
+        estimate.own_pace,
+        PACE_BLEND_SPEED,
+        scene,
+        getattr(navigator, "rule", None),  # mfi-nc's escape rule
+        getattr(navigator, "ground", None),
+        relative,
+        user,
+    )
+
+
 def add_velocity_estimators(
     builder: DiagramBuilder,
     estimate: RelativeVelocity,
@@ -251,6 +295,30 @@ def add_velocity_estimators(
         )
 
 
+def true_rows(
+    builder: DiagramBuilder,
+    faults: Faults,
+    chain: FleetChain,
+    states,
+    scene_sensor: FleetSceneSensor | None,
+) -> OutputPort:
+    """The port of the rows to log: the chain's, or, where faults make the
+    chain read other states or readings than the true ones (a lone
+    vehicle's), `TrueRows`' with the truth put back."""
+    rows = chain.GetOutputPort("rows")
+    scene = scene_sensor is not None
+    if not (estimate_faulted(faults) or (scene and readings_faulted(faults))):
+        return rows
+    truth = builder.AddNamedSystem("true_rows", TrueRows(scene))
+    builder.Connect(rows, truth.GetInputPort("rows"))
+    builder.Connect(states.get_output_port(0), truth.GetInputPort("states"))
+    if scene:
+        builder.Connect(
+            scene_sensor.GetOutputPort("scene"), truth.GetInputPort("scene")
+        )
+    return truth.GetOutputPort("rows")
+
+
 class OneIntegratorFleet:
     """The diagram of the module docstring and its handles."""
 
@@ -272,40 +340,13 @@ class OneIntegratorFleet:
         states = builder.AddNamedSystem("states", Multiplexer([STATE_SIZE] * n))
         for k, plant in enumerate(self.plants):
             builder.Connect(plant.get_output_port(0), states.get_input_port(k))
-        navigator, selector = method_systems(scenario, method)
-        user = navigator if isinstance(navigator, UserFieldNavigator) else None
-        attract = baselines.attraction_terms  # the goal part of the baselines,
-        if isinstance(selector, GoalAttractionSelector):  # MFI's
-            attract = fields.goal_terms
-        elif user is not None:  # a user's field (its F_n, `PassThroughGoal`)
-            attract = fleet.no_goal_terms
-        estimate = scenario.relative_velocity
         scene = bool(scenario.obstacles) or scenario.ground is not None
         # Their velocities estimated from the readings, as `flight.chain.
         # navigator_of`'s `relative_navigator` does on the systems engine
         # (a user's field reads none).
-        relative = bool(frames.frames) and estimate.enabled and user is None
+        relative = bool(frames.frames) and uses_estimate(scenario, method)
         chain = builder.AddNamedSystem(
-            "fleet_chain",
-            FleetChain(
-                [s.goal for s in self.flown],
-                fields.obstacle_field if user else field_of(navigator),
-                attract,
-                for_vehicle(scenario.navigator, self.vehicle)
-                if user
-                else navigator.params,
-                for_vehicle(scenario.navigator, self.vehicle),
-                self.vehicle,
-                scenario.sensor.radius,
-                estimate.keep_right,
-                estimate.own_pace,
-                PACE_BLEND_SPEED,
-                scene,
-                getattr(navigator, "rule", None),  # mfi-nc's escape rule
-                getattr(navigator, "ground", None),
-                relative,
-                user,
-            ),
+            "fleet_chain", chain_system(scenario, method, self.flown, scene, relative)
         )
         # Faults (a lone vehicle's, `unsupported`): the chain reads the state
         # estimate and the faulted readings, the plant the faulted rotors,
@@ -331,7 +372,9 @@ class OneIntegratorFleet:
             )
             builder.Connect(sensed, chain.GetInputPort("scene"))
         if relative:
-            add_velocity_estimators(builder, estimate, n, estimate_port, sensed, chain)
+            add_velocity_estimators(
+                builder, scenario.relative_velocity, n, estimate_port, sensed, chain
+            )
         rotors = builder.AddNamedSystem("rotors", Demultiplexer(ROTORS * n, ROTORS))
         builder.Connect(
             add_rotor_faults(
@@ -347,17 +390,7 @@ class OneIntegratorFleet:
                 rotors.get_output_port(k),
                 add_rotor_path(builder, self.vehicle, plant.get_input_port(0), True),
             )
-        rows = chain.GetOutputPort("rows")
-        if estimate_faulted(faults) or (scene and readings_faulted(faults)):
-            truth = builder.AddNamedSystem("true_rows", TrueRows(scene))
-            builder.Connect(rows, truth.GetInputPort("rows"))
-            builder.Connect(states.get_output_port(0), truth.GetInputPort("states"))
-            if scene:
-                builder.Connect(
-                    self.scene_sensor.GetOutputPort("scene"),
-                    truth.GetInputPort("scene"),
-                )
-            rows = truth.GetOutputPort("rows")
+        rows = true_rows(builder, faults, chain, states, self.scene_sensor)
         # publish_period 0: the sink records once per integrator step.
         self.logger = LogVectorOutput(rows, builder, publish_period=0.0)
         self.logger.set_name("logger")
