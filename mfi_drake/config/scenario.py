@@ -14,6 +14,7 @@ import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pydrake.common.schema import Transform
@@ -41,6 +42,9 @@ from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.config.worlds import WorldPose, world_problems
 from mfi_drake.maths.escape import EscapeParams
 from mfi_drake.maths.point_maps import MAP_VOXEL
+
+if TYPE_CHECKING:  # its fields are a Scenario's (`check_navigation_fields`)
+    from mfi_drake.config.navigation import NavigationConfig
 
 FLEET_INTEGRATIONS = ("separate", "one")
 # How the chain is evaluated (docs/performance.md, "Engines"): "systems",
@@ -253,7 +257,7 @@ class Scenario:
     )
     apf: ApfParams = field(default_factory=ApfParams)  # the APF baseline's gains
     gf: GfParams = field(default_factory=GfParams)  # the GF baseline's gains
-    # The escape rule of method "mfi-nc" (docs/nonconvex.md), with MFI's gains.
+    # The escape rule of MFI (docs/nonconvex.md), with MFI's gains.
     escape: EscapeParams = field(default_factory=EscapeParams)
     # Keyword arguments of a user's field function (MODULE:NAME methods).
     field_gains: dict[str, float] = field(default_factory=dict)
@@ -386,10 +390,6 @@ def _check_motion(where: str, motion: Motion) -> None:
 def _check_dynamic(where: str, scenario: Scenario) -> None:
     """The ground, the other vehicles and the relative-velocity estimate
     (docs/dynamic.md); `world.validation` checks where the vehicles are."""
-    if scenario.ground is not None:
-        height = scenario.ground.height
-        if not _is_number(height) or not math.isfinite(height):
-            fail(where, "ground.height", height, "must be a finite number")
     for i, other in enumerate(scenario.other_vehicles):
         _check_vector(where, f"other_vehicles[{i}].start", other.start)
         _check_goal(where, f"other_vehicles[{i}].goal", other.goal)
@@ -418,7 +418,11 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
             scenario.engine,
             "a fleet flies compiled on one integrator (fleet_integration: one)",
         )
-    estimate = scenario.relative_velocity
+    check_relative_velocity(where, scenario.relative_velocity)
+
+
+def check_relative_velocity(where: str, estimate: RelativeVelocity) -> None:
+    """The `relative_velocity:` block of a Scenario or a NavigationConfig."""
     _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
     _check_positive(where, "relative_velocity.gate", estimate.gate)
     tau = estimate.time_constant
@@ -438,6 +442,16 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     _check_goal(where, "goal", scenario.goal)
     _check_positive(where, "duration", scenario.duration)
     _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
+    check_navigation_fields(scenario, where)
+    _check_world(where, scenario)
+
+
+def check_navigation_fields(
+    scenario: "Scenario | NavigationConfig", where: str
+) -> None:
+    """The fields a Scenario shares with a `config.navigation.NavigationConfig`
+    (`scenario`: either): vehicle, sensor, every method's gains, faults,
+    ground."""
     for name, value, reason in vehicle_field_problems(scenario.vehicle):
         fail(where, name, value, reason)
     if isinstance(scenario.sensor, SphereSensor):
@@ -460,6 +474,13 @@ def check_scenario(scenario: Scenario, where: str) -> None:
             fail(where, f"field_gains.{name}", value, "must be a finite number")
     for name, value, reason in fault_problems(scenario.faults):
         fail(where, f"faults.{name}", value, reason)
+    if scenario.ground is not None:
+        height = scenario.ground.height
+        if not _is_number(height) or not math.isfinite(height):
+            fail(where, "ground.height", height, "must be a finite number")
+
+
+def _check_world(where: str, scenario: Scenario) -> None:
     sim = scenario.simulator
     _check_positive(where, "simulator.accuracy", sim.accuracy)
     _check_positive(where, "simulator.max_step_size", sim.max_step_size)
