@@ -168,8 +168,9 @@ def test_a_config_beside_its_fields_and_a_bad_config_are_named():
         with pytest.raises(BuilderError, match=message):
             add_navigation(builder, quadrotor, scene_graph, **arguments)
     # Nothing was added: the same builder takes the good config.
-    assert add_navigation(builder, quadrotor, scene_graph, config=config).method == (
-        "mfi"
+    handles = add_navigation(builder, quadrotor, scene_graph, config=config)
+    assert handles.config.method == "mfi" and handles.navigator.get_name() == (
+        "navigator"
     )
 
 

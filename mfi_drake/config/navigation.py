@@ -121,20 +121,15 @@ def navigation_config(scenario: Scenario, method: str = "mfi") -> NavigationConf
     """The navigation fields of `scenario`, flown by `method`: what
     `flight.diagram.build_diagram` gives `add_navigation`. Its obstacles
     move where one has a motion (`world.motion.obstacles_move`)."""
+    own = ("goal", "method", "other_vehicles", "moving_obstacles")
     return NavigationConfig(
+        **{
+            f.name: getattr(scenario, f.name)
+            for f in dataclasses.fields(NavigationConfig)
+            if f.name not in own
+        },
         goal=list(scenario.goal),
-        vehicle=scenario.vehicle,
         method=method,
-        sensor=scenario.sensor,
-        navigator=scenario.navigator,
-        mfi_paper=scenario.mfi_paper,
-        apf=scenario.apf,
-        gf=scenario.gf,
-        escape=scenario.escape,
-        field_gains=scenario.field_gains,
-        faults=scenario.faults,
-        relative_velocity=scenario.relative_velocity,
-        ground=scenario.ground,
         other_vehicles=len(scenario.other_vehicles),
         moving_obstacles=any(moves(o.motion) for o in scenario.obstacles),
     )

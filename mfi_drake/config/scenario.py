@@ -14,7 +14,6 @@ import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 from pydrake.common.schema import Transform
@@ -42,9 +41,6 @@ from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.config.worlds import WorldPose, world_problems
 from mfi_drake.maths.escape import EscapeParams
 from mfi_drake.maths.point_maps import MAP_VOXEL
-
-if TYPE_CHECKING:  # its fields are a Scenario's (`check_navigation_fields`)
-    from mfi_drake.config.navigation import NavigationConfig
 
 FLEET_INTEGRATIONS = ("separate", "one")
 # How the chain is evaluated (docs/performance.md, "Engines"): "systems",
@@ -446,9 +442,7 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     _check_world(where, scenario)
 
 
-def check_navigation_fields(
-    scenario: "Scenario | NavigationConfig", where: str
-) -> None:
+def check_navigation_fields(scenario: object, where: str) -> None:
     """The fields a Scenario shares with a `config.navigation.NavigationConfig`
     (`scenario`: either): vehicle, sensor, every method's gains, faults,
     ground."""

@@ -35,7 +35,6 @@ from pydrake.systems.framework import (
     InputPort,
     LeafSystem,
     OutputPort,
-    System,
 )
 from pydrake.systems.primitives import MatrixGain, VectorLogSink
 
@@ -57,7 +56,6 @@ from mfi_drake.flight.methods import Method, MethodError, resolve_method
 from mfi_drake.flight.scene import goal_obstacle, scene_moves
 from mfi_drake.maths.layout import POSITION, STATE_SIZE
 from mfi_drake.maths.quadcopter import plus_commands
-from mfi_drake.systems.control import AttitudePD, RotorMixer
 from mfi_drake.systems.multibody import add_propellers, add_vehicle_state, place_vehicle
 from mfi_drake.systems.rotors import motor_lag
 
@@ -88,12 +86,12 @@ def apply_simulator_config(config: SimulatorConfig, simulator: Simulator) -> Non
 
 
 @dataclass
-class NavigationHandles:
-    """What `add_navigation` added, and how to start and read a flight."""
+class NavigationHandles(Controller):
+    """What `add_navigation` added (the `Controller`'s systems and more), and
+    how to start and read a flight."""
 
     config: NavigationConfig  # as flown: its vehicle, its method's name
     sensor: LeafSystem  # its output "obstacle" is what the navigator reads
-    controller: Controller  # navigator, selector, attitude PD, mixer, estimate
     logger: VectorLogSink  # LOG_LAYOUT, once per integrator step
     state: OutputPort  # the vehicle's true 12-vector state the chain reads
     rotor_command: InputPort  # the 4 rotor forces the mixer drives
@@ -101,32 +99,6 @@ class NavigationHandles:
     body: RigidBody | None  # a MultibodyPlant vehicle's floating body
     ignored: frozenset[GeometryId]  # never seen as obstacles: the vehicle's own
     place: Callable[[Context, np.ndarray], None] = field(repr=False)
-
-    @property
-    def navigator(self) -> System:
-        return self.controller.navigator
-
-    @property
-    def selector(self) -> LeafSystem:
-        return self.controller.selector
-
-    @property
-    def attitude_pd(self) -> AttitudePD:
-        return self.controller.attitude_pd
-
-    @property
-    def mixer(self) -> RotorMixer:
-        return self.controller.mixer
-
-    @property
-    def estimate(self) -> OutputPort:
-        """The state the controller reads (through `faults`)."""
-        return self.controller.estimate
-
-    @property
-    def method(self) -> str:
-        """Its registry name, or a user field's MODULE:NAME."""
-        return self.config.method
 
     def set_start(self, root_context: Context, position) -> None:
         """Puts the vehicle at `position` [m], level and at rest, in the
@@ -163,51 +135,80 @@ def add_navigation(
 ) -> NavigationHandles:
     """Adds MFI navigation (or `method`'s) to `builder`: a sensor reading
     `scene_graph`, the navigator, the goal attraction, eq 25's attitude PD
-    and the mixer, from `plant`'s state to its rotor forces, flying to
-    `goal` [x, y, z] (m), and a logger of LOG_LAYOUT.
+    and the mixer, from `plant`'s state to its rotor forces, and a logger
+    of LOG_LAYOUT; returns their handles.
 
     `plant`: Drake's QuadrotorPlant in `builder`, or a finalized
     MultibodyPlant with `body`, the vehicle's floating body (its name or
-    the RigidBody), driven by Drake's Propeller. `scene_graph`: the
-    SceneGraph in `builder`; every proximity geometry in it is an
-    obstacle, whoever registered it, but the vehicle's own (the geometry on
-    `body`'s frame).
+    the RigidBody), driven by Drake's Propeller; the body's own mass and
+    inertia replace the vehicle's (`body_vehicle`). `scene_graph`: the
+    SceneGraph in `builder`; every proximity geometry in it is an obstacle
+    but the vehicle's own (on `body`'s frame).
 
-    What to fly is either `config`, a `NavigationConfig` (Drake's
-    `Apply*Config` idiom; a YAML file's with `read_navigation_config`), or
-    the keywords, a config's fields: `goal`; `method` ("mfi", "apf", "gf",
-    "mfi-paper", "MODULE:NAME" of a user's field, or the function; default
-    "mfi"); `vehicle` (a preset's name or a `Vehicle`, `config.vehicles`:
-    the controller's mass, inertia and rotor constants; default
-    "drake_default"; a MultibodyPlant `body`'s own mass and inertia
-    replace the vehicle's, `body_vehicle`); `sensor` (`SphereSensor`,
-    default, or a camera rig); `navigator` (NavigatorParams, or a dict of
-    its fields overriding the defaults); `faults` (`Faults`). With
-    `config`, `method` may still name a function or a `Method`, which a
-    config's string cannot hold; the other keywords must be left out.
+    What to fly: `config`, a `NavigationConfig` (Drake's `Apply*Config`
+    idiom), or keywords naming its fields: `goal` [x, y, z] (m), `method`
+    (default "mfi"; a name, "MODULE:NAME" of a user's field, or the
+    function), `vehicle` (a preset's name or a `Vehicle`; default
+    "drake_default"), `sensor`, `navigator` (NavigatorParams, or a dict of
+    its fields) and `faults`. Beside `config` only `method` may be given
+    (a function or a `Method`, which a config's string cannot hold).
 
-    `check_goal`: refuse a goal where the vehicle would touch an obstacle,
-    checked against the geometry whose pose is known now: anchored
-    geometry, and a finalized MultibodyPlant's at its default context
-    (exact for welded bodies; free bodies where they are by default);
-    geometry another source moves is not checked. `map_points` (n, 3): a
-    point-cloud map the sensor reads instead of `scene_graph`
-    (`add_sensor`).
+    `check_goal`: refuse a goal where the vehicle would touch an obstacle
+    (`_check_goal`). `map_points` (n, 3): a point-cloud map the sensor
+    reads instead of `scene_graph` (`add_sensor`).
 
-    Simulating needs one line beyond a plain Simulator, because eq 21's
-    witness functions need the context's accuracy:
+    A plain Simulator also needs `apply_simulator_config` (eq 21's
+    witnesses read the context's accuracy), then `handles.set_start`.
+    Raises BuilderError naming the first bad argument, adding nothing."""
+    keywords = {"goal": goal, "vehicle": vehicle, "sensor": sensor}
+    keywords |= {"navigator": navigator, "faults": faults}
+    config, resolved = _checked_config(config, method, keywords)
+    rig = _vehicle(builder, plant, body, scene_graph, config)
+    config = replace(config, vehicle=rig.vehicle)
+    if check_goal:
+        _check_goal(builder, scene_graph, config.goal, rig.vehicle, rig.ignored)
+    rig.connect()  # nothing is added to builder before every check has passed
+    moving = config.moving_obstacles or scene_moves(builder, scene_graph, rig.ignored)
+    config = replace(config, moving_obstacles=moving)
+    sensor = add_sensor(
+        builder,
+        config.sensor,
+        scene_graph,
+        rig.state,
+        vehicle=rig.vehicle,
+        other_vehicles=config.other_vehicles,
+        moving=moving,
+        ignore=rig.ignored,
+        mount=rig.mount,
+        map_points=map_points,
+    )
+    controller = add_controller(
+        builder, config, rig.state, sensor, rig.rotor_command, method=resolved
+    )
+    return NavigationHandles(
+        **vars(controller),
+        config=config,
+        sensor=sensor,
+        logger=add_logger(builder, rig.state, sensor, controller),
+        state=rig.state,
+        rotor_command=rig.rotor_command,
+        vehicle=rig.vehicle,
+        body=rig.body,
+        ignored=rig.ignored,
+        place=rig.place,
+    )
 
-        apply_simulator_config(default_simulator_config(), simulator)
 
-    then `handles.set_start(simulator.get_mutable_context(), start)`.
-    Raises BuilderError naming the first bad argument; nothing is added to
-    `builder` before every check has passed."""
-    keywords = {"vehicle": vehicle, "sensor": sensor, "navigator": navigator}
+def _checked_config(
+    config: NavigationConfig | None, method, keywords: dict
+) -> tuple[NavigationConfig, Method]:
+    """`config`, or the config of `add_navigation`'s `keywords` where it is
+    None, and its method (`method` where given), resolved and checked;
+    raises BuilderError naming the first bad argument."""
     if config is None:
-        config = _keyword_config(goal, faults=faults, **keywords)
+        config = _keyword_config(**keywords)
     else:
-        beside = {"goal": goal, "faults": faults, **keywords}
-        for name, value in beside.items():
+        for name, value in keywords.items():
             if value is not None:
                 raise BuilderError(
                     f"{name} = {value!r}: given with config; set config.{name}"
@@ -222,47 +223,11 @@ def add_navigation(
         as_vehicle(config.vehicle)
     except (ScenarioError, VehicleError) as e:
         raise BuilderError(str(e)) from None
-    _check_added(builder, "scene_graph", scene_graph, SceneGraph)
-    rig = _vehicle(builder, plant, body, scene_graph, config)
-    config = replace(config, vehicle=rig.vehicle)
-    ignored = own_geometry(scene_graph, rig.own_frames)
-    if check_goal:
-        _check_goal(builder, scene_graph, config.goal, rig.vehicle, ignored)
-    rig.connect()  # nothing is added to builder before every check has passed
-    moving = config.moving_obstacles or scene_moves(builder, scene_graph, ignored)
-    config = replace(config, moving_obstacles=moving)
-    sensor = add_sensor(
-        builder,
-        config.sensor,
-        scene_graph,
-        rig.state,
-        vehicle=rig.vehicle,
-        other_vehicles=config.other_vehicles,
-        moving=moving,
-        ignore=ignored,
-        mount=rig.mount,
-        map_points=map_points,
-    )
-    controller = add_controller(
-        builder, config, rig.state, sensor, rig.rotor_command, method=resolved
-    )
-    return NavigationHandles(
-        config=config,
-        sensor=sensor,
-        controller=controller,
-        logger=add_logger(builder, rig.state, sensor, controller),
-        state=rig.state,
-        rotor_command=rig.rotor_command,
-        vehicle=rig.vehicle,
-        body=rig.body,
-        ignored=ignored,
-        place=rig.place,
-    )
+    return config, resolved
 
 
 def _keyword_config(
     goal,
-    *,
     vehicle: "str | Vehicle | None",
     sensor: Sensor | None,
     navigator: NavigatorParams | dict | None,
@@ -282,6 +247,11 @@ def _keyword_config(
 
 
 def _check_goal(builder, scene_graph, goal, vehicle: Vehicle, ignored) -> None:
+    """Raises BuilderError where the vehicle at `goal` would touch geometry
+    whose pose is known at build time: anchored geometry, and a finalized
+    MultibodyPlant's at its default context (exact for welded bodies; free
+    bodies where they are by default); geometry another source moves is
+    not checked."""
     touched = goal_obstacle(
         builder, scene_graph, goal, vehicle.collision_radius, ignored
     )
@@ -327,11 +297,11 @@ def _navigator_params(navigator) -> NavigatorParams:
 @dataclass
 class _Rig:
     """How the chain meets a plant: its state and rotor ports (once
-    `connect` has added what they need), the frames of its own geometry,
-    where cameras ride and how it is placed at a start."""
+    `connect` has added what they need), its own geometry, where cameras
+    ride and how it is placed at a start."""
 
     vehicle: Vehicle  # a MultibodyPlant body's own mass and inertia
-    own_frames: tuple
+    ignored: frozenset[GeometryId]  # its own geometry, no obstacle
     mount: CameraMount | None
     place: Callable[[Context, np.ndarray], None]
     add_ports: Callable[[], tuple[OutputPort, InputPort]]
@@ -353,6 +323,7 @@ def _check_added(builder: DiagramBuilder, name: str, system, kind) -> None:
 
 
 def _vehicle(builder, plant, body, scene_graph, config: NavigationConfig) -> _Rig:
+    _check_added(builder, "scene_graph", scene_graph, SceneGraph)
     if isinstance(plant, QuadrotorPlant):
         _check_added(builder, "plant", plant, QuadrotorPlant)
         if body is not None:
@@ -360,7 +331,7 @@ def _vehicle(builder, plant, body, scene_graph, config: NavigationConfig) -> _Ri
         vehicle = as_vehicle(config.vehicle)
         return _Rig(
             vehicle=vehicle,
-            own_frames=(),
+            ignored=frozenset(),
             mount=None,
             place=lambda context, p: place_quadrotor(plant, context, p),
             add_ports=lambda: (
@@ -421,7 +392,8 @@ def _multibody_vehicle(builder, plant, body, scene_graph, config) -> _Rig:
             plant, plant.GetMyMutableContextFromRoot(context), rigid, position
         )
 
-    return _Rig(vehicle, own, mount, place, add_ports, body=rigid)
+    ignored = own_geometry(scene_graph, own)
+    return _Rig(vehicle, ignored, mount, place, add_ports, body=rigid)
 
 
 def body_vehicle(vehicle: Vehicle, body: RigidBody) -> Vehicle:

@@ -136,17 +136,7 @@ def add_sensor(
         if mount is None:
             mount = _drawn_vehicle(builder, scene_graph, state_port, vehicle)
         if other_vehicles:
-            spheres = builder.AddNamedSystem(
-                "other_vehicles",
-                OtherVehicleSpheres(
-                    scene_graph, other_vehicles, vehicle.collision_radius
-                ),
-            )
-            builder.Connect(
-                spheres.get_output_port(),
-                scene_graph.get_source_pose_port(spheres.source_id),
-            )
-            builder.ExportInput(spheres.get_input_port(), "other_vehicles")
+            _add_other_vehicles(builder, scene_graph, other_vehicles, vehicle)
         return add_depth_cameras(
             builder,
             sensor,
@@ -195,6 +185,22 @@ def _drawn_vehicle(
         scene_graph.get_source_pose_port(geometry.source_id),
     )
     return CameraMount(geometry.frame_id, geometry.get_output_port(0))
+
+
+def _add_other_vehicles(
+    builder: DiagramBuilder, scene_graph: SceneGraph, count: int, vehicle: Vehicle
+) -> None:
+    """The other vehicles of a fleet as spheres in SceneGraph, posed from
+    the exported input "other_vehicles", for cameras to see."""
+    spheres = builder.AddNamedSystem(
+        "other_vehicles",
+        OtherVehicleSpheres(scene_graph, count, vehicle.collision_radius),
+    )
+    builder.Connect(
+        spheres.get_output_port(),
+        scene_graph.get_source_pose_port(spheres.source_id),
+    )
+    builder.ExportInput(spheres.get_input_port(), "other_vehicles")
 
 
 def _fleet_readings(
