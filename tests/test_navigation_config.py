@@ -30,9 +30,11 @@ from mfi_drake import (
     navigation_config,
     read_navigation_config,
     simulate,
+    vehicle_model_path,
 )
 from mfi_drake.config.dynamic import Ground, RelativeVelocity
 from mfi_drake.config.scenario import Gimbal
+from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.maths.escape import EscapeParams
 from mfi_drake.world.motion import obstacles_move
 
@@ -67,6 +69,22 @@ def test_a_config_round_trips_through_drakes_yaml():
     assert read_navigation_config("goal: [1, 2, 3]") == NavigationConfig(
         goal=[1.0, 2.0, 3.0]
     )
+
+
+def test_a_vehicle_model_is_read_relative_to_base_dir():
+    """Oracle: the shipped model file of a preset reads back as its record."""
+    preset = VEHICLES["crazyflie"]
+    text = (
+        "{goal: [1, 2, 3], vehicle: !VehicleModel {file: crazyflie.sdf, "
+        f"kF: {preset.kF}, kM: {preset.kM}, u_max: {preset.u_max}, "
+        f"rotor_radius: {preset.rotor_radius}, layout: {preset.layout}}}}}"
+    )
+    base_dir = os.path.dirname(vehicle_model_path("crazyflie"))
+    vehicle = read_navigation_config(text, base_dir=base_dir).vehicle
+    assert vehicle.mass == pytest.approx(preset.mass, rel=1e-12)
+    assert vehicle.inertia == pytest.approx(preset.inertia, rel=1e-12)
+    with pytest.raises(ScenarioError, match=r"^here: .*crazyflie.sdf"):
+        read_navigation_config(text, "here", base_dir="/nonexistent")
 
 
 BAD_YAML = {

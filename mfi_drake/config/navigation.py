@@ -25,15 +25,21 @@ from mfi_drake.config.parameters import (
 )
 from mfi_drake.config.scenario import (
     Scenario,
+    ScenarioError,
     Sensor,
     SphereSensor,
     check_navigation_fields,
     check_relative_velocity,
     fail,
 )
-from mfi_drake.config.scenario_yaml import _check_schema, _read_yaml, _typed
+from mfi_drake.config.scenario_yaml import (
+    _check_schema,
+    _read_yaml,
+    _typed,
+    _vehicle_record,
+)
 from mfi_drake.config.vehicle_model import VehicleModel
-from mfi_drake.config.vehicles import Vehicle
+from mfi_drake.config.vehicles import Vehicle, VehicleError
 from mfi_drake.maths.escape import EscapeParams
 
 
@@ -105,14 +111,20 @@ def _finite(x) -> bool:
 
 
 def read_navigation_config(
-    text: str, where: str = "NavigationConfig"
+    text: str, where: str = "NavigationConfig", base_dir: str = ""
 ) -> NavigationConfig:
     """The NavigationConfig of the YAML mapping `text`, loaded onto the
     defaults with Drake's `yaml_load_typed` and checked: a bad key or
-    value raises ScenarioError in one line naming `where` and the field."""
+    value raises ScenarioError in one line naming `where` and the field.
+    A `!VehicleModel` is read into its Vehicle, its file relative to
+    `base_dir`."""
     raw = _read_yaml(text, where)
     _check_schema({} if raw is None else raw, NavigationConfig, where, "")
     config = _typed(NavigationConfig, text or "{}", where)
+    try:
+        config.vehicle = _vehicle_record(config.vehicle, base_dir)
+    except VehicleError as e:
+        raise ScenarioError(f"{where}: {e}") from None
     check_navigation(config, where)
     return config
 
