@@ -29,7 +29,6 @@ from mfi_drake.config.scenario import (
     Sensor,
     SphereSensor,
     check_navigation_fields,
-    check_relative_velocity,
     fail,
 )
 from mfi_drake.config.scenario_yaml import (
@@ -94,7 +93,6 @@ def check_navigation(config: NavigationConfig, where: str) -> None:
     if not isinstance(config.method, str) or not config.method:
         fail(where, "method", config.method, "must be a method's name or MODULE:NAME")
     check_navigation_fields(config, where)
-    check_relative_velocity(where, config.relative_velocity)
     count = config.other_vehicles
     if not isinstance(count, int) or isinstance(count, bool) or count < 0:
         fail(where, "other_vehicles", count, "must be a whole number ≥ 0")

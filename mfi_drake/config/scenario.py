@@ -384,8 +384,8 @@ def _check_motion(where: str, motion: Motion) -> None:
 
 
 def _check_dynamic(where: str, scenario: Scenario) -> None:
-    """The ground, the other vehicles and the relative-velocity estimate
-    (docs/dynamic.md); `world.validation` checks where the vehicles are."""
+    """The other vehicles and how a fleet flies (docs/dynamic.md);
+    `world.validation` checks where the vehicles are."""
     for i, other in enumerate(scenario.other_vehicles):
         _check_vector(where, f"other_vehicles[{i}].start", other.start)
         _check_goal(where, f"other_vehicles[{i}].goal", other.goal)
@@ -414,19 +414,6 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
             scenario.engine,
             "a fleet flies compiled on one integrator (fleet_integration: one)",
         )
-    check_relative_velocity(where, scenario.relative_velocity)
-
-
-def check_relative_velocity(where: str, estimate: RelativeVelocity) -> None:
-    """The `relative_velocity:` block of a Scenario or a NavigationConfig."""
-    _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
-    _check_positive(where, "relative_velocity.gate", estimate.gate)
-    tau = estimate.time_constant
-    if not _is_number(tau) or not math.isfinite(tau) or tau < 0.0:
-        fail(where, "relative_velocity.time_constant", tau, "must be a number ≥ 0")
-    turn = estimate.keep_right
-    if not _is_number(turn) or not 0.0 <= turn < 90.0:
-        fail(where, "relative_velocity.keep_right", turn, "must be in [0, 90) degrees")
 
 
 def check_scenario(scenario: Scenario, where: str) -> None:
@@ -445,7 +432,7 @@ def check_scenario(scenario: Scenario, where: str) -> None:
 def check_navigation_fields(scenario: object, where: str) -> None:
     """The fields a Scenario shares with a `config.navigation.NavigationConfig`
     (`scenario`: either): vehicle, sensor, every method's gains, faults,
-    ground."""
+    ground, relative velocity."""
     for name, value, reason in vehicle_field_problems(scenario.vehicle):
         fail(where, name, value, reason)
     if isinstance(scenario.sensor, SphereSensor):
@@ -472,6 +459,15 @@ def check_navigation_fields(scenario: object, where: str) -> None:
         height = scenario.ground.height
         if not _is_number(height) or not math.isfinite(height):
             fail(where, "ground.height", height, "must be a finite number")
+    estimate = scenario.relative_velocity
+    _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
+    _check_positive(where, "relative_velocity.gate", estimate.gate)
+    tau = estimate.time_constant
+    if not _is_number(tau) or not math.isfinite(tau) or tau < 0.0:
+        fail(where, "relative_velocity.time_constant", tau, "must be a number ≥ 0")
+    turn = estimate.keep_right
+    if not _is_number(turn) or not 0.0 <= turn < 90.0:
+        fail(where, "relative_velocity.keep_right", turn, "must be in [0, 90) degrees")
 
 
 def _check_world(where: str, scenario: Scenario) -> None:
