@@ -158,7 +158,7 @@ def _mfi_goal(key: str) -> Callable[[NavigationConfig, Vehicle], LeafSystem]:
     )
 
 
-def _obstacle_navigator(kind: type, key: str) -> Callable:
+def _obstacle_navigator(kind: Callable, key: str) -> Callable:
     """The navigator `kind` (MfiNavigator, ApfNavigator, GfNavigator) at the
     config's `key` gains."""
     return lambda c, vehicle: kind(
