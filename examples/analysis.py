@@ -23,12 +23,12 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.primitives import LinearSystem
 
 from mfi_drake import (
+    NavigationConfig,
     build_analysis_diagram,
     finite_difference_jacobian,
     hover_modes,
     hover_state,
     linearize_closed_loop,
-    navigation_scenario,
 )
 
 GOAL = [0.0, 0.0, 1.5]
@@ -50,7 +50,7 @@ def main() -> int:
     parser.add_argument("--duration", type=float, default=5.0, help="s")
     args = parser.parse_args()
 
-    analysis = build_analysis_diagram(navigation_scenario(GOAL, vehicle=args.vehicle))
+    analysis = build_analysis_diagram(NavigationConfig(goal=GOAL, vehicle=args.vehicle))
     x0 = hover_state(analysis.goal)  # level, at rest, at the goal
     A = linearize_closed_loop(analysis, x0)
     A_fd = finite_difference_jacobian(analysis.diagram, x0)

@@ -8,7 +8,7 @@ output "obstacle", the signal MFI's navigator reads: 3 readings
 centre to an obstacle's closest point, seen = 1 within the sensor's radius
 (else the reading is zeros). `add_controller` adds the navigator, the goal
 attraction, the attitude PD and the mixer from QuadrotorPlant's state to
-its rotor forces; `navigation_scenario` holds its goal and parameters.
+its rotor forces; a `NavigationConfig` holds its goal and parameters.
 
     python examples/own_sensor.py [--duration 30]
 
@@ -26,10 +26,10 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput
 
 from mfi_drake import (
+    NavigationConfig,
     add_controller,
     apply_simulator_config,
     default_simulator_config,
-    navigation_scenario,
 )
 from step_loop import GOAL, GOAL_TOLERANCE, START, clearance, closest_points
 
@@ -67,7 +67,7 @@ def main() -> int:
     sensor = builder.AddSystem(KnownSpheres())
     add_controller(
         builder,
-        navigation_scenario(GOAL),  # the goal, the vehicle, MFI's parameters
+        NavigationConfig(goal=GOAL),  # the goal, the vehicle, MFI's parameters
         quadrotor.get_output_port(0),
         sensor,
         quadrotor.get_input_port(0),

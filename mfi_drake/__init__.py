@@ -13,12 +13,14 @@ else):
 
 The builder API, MFI in a user's own Drake diagram:
 
-- `add_navigation(builder, plant, scene_graph, goal, ...)`: the sensor,
-  navigator, goal attraction, attitude PD, mixer and logger around the
-  user's QuadrotorPlant or MultibodyPlant; `NavigationHandles`;
-  `add_scenario_navigation`, the same from a `Scenario`'s fields;
-- its pieces `add_sensor`, `add_controller` (`Controller`; its Scenario
-  from `navigation_scenario(goal, ...)`), `add_logger`, `LOG_LAYOUT`;
+- `add_navigation(builder, plant, scene_graph, goal, ...)` or
+  `add_navigation(builder, plant, scene_graph, config=NavigationConfig(...))`:
+  the sensor, navigator, goal attraction, attitude PD, mixer and logger
+  around the user's QuadrotorPlant or MultibodyPlant; `NavigationHandles`;
+  `NavigationConfig` from YAML with `read_navigation_config(text)`, from a
+  `Scenario` with `navigation_config(scenario)`;
+- its pieces `add_sensor`, `add_controller` (`Controller`; it takes a
+  `NavigationConfig`), `add_logger`, `LOG_LAYOUT`;
 - `apply_simulator_config(config, simulator)` with
   `default_simulator_config()`: what a plain Simulator needs beyond
   Drake's ApplySimulatorConfig (eq 21's witnesses read the context's
@@ -57,8 +59,9 @@ _API = {
     "NavigationStep": "mfi_drake.flight.step",
     "StepOutput": "mfi_drake.flight.step",
     "add_navigation": "mfi_drake.flight.builder",
-    "add_scenario_navigation": "mfi_drake.flight.builder",
-    "navigation_scenario": "mfi_drake.flight.builder",
+    "NavigationConfig": "mfi_drake.config.navigation",
+    "read_navigation_config": "mfi_drake.config.navigation",
+    "navigation_config": "mfi_drake.config.navigation",
     "NavigationHandles": "mfi_drake.flight.builder",
     "BuilderError": "mfi_drake.flight.builder",
     "apply_simulator_config": "mfi_drake.flight.builder",

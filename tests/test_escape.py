@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.config.navigation import navigation_config
 from mfi_drake.config.scenario_yaml import layer, parse_scenario, read_override
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.methods import METHODS
@@ -309,7 +310,7 @@ def test_the_escape_section_of_a_scenario_is_checked_and_flown():
         parse_scenario(path, [("--set", "escape: {corner_brake: 3}")])
     scenario = parse_scenario(path, [("--set", "escape: {stall_time: 9.0}")])
     vehicle = VEHICLES[scenario.vehicle]
-    navigator = METHODS["mfi"].navigator(scenario, vehicle)
+    navigator = METHODS["mfi"].navigator(navigation_config(scenario), vehicle)
     assert navigator.rule.stall_time == 9.0
     scenario.escape.stall_time = 3.0  # copied at construction
     assert navigator.rule.stall_time == 9.0

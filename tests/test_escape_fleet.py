@@ -16,12 +16,13 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import EventStatus
 
+from mfi_drake.config.navigation import navigation_config
 from mfi_drake.config.scenario import OtherVehicle
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.builder import place_quadrotor
 from mfi_drake.flight.diagram import build_diagram, vehicle_scenarios
 from mfi_drake.flight.fleet import OneIntegratorFleet
-from mfi_drake.flight.methods import METHODS, escape_off
+from mfi_drake.flight.methods import escape_off, resolve_method
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.flight.simulator import simulator_at_start
 from mfi_drake.maths import escape, escape_steering, fields, fleet
@@ -273,9 +274,10 @@ def test_mfi_flies_memoryless_where_no_static_scene_can_be_told(scene, change, w
     its alias mfi-nc fly MFI's memoryless navigator, as mfi-memoryless."""
     layers = [("change", change)] if change else []
     scenario = load_scenario(f"{SCENARIOS}/{scene}.yaml", layers)
-    assert escape_off(scenario) == why
+    config = navigation_config(scenario)
+    assert escape_off(config) == why
     for name in ("mfi", "mfi-nc", "mfi-memoryless"):
-        navigator = METHODS[name].navigator(scenario, VEHICLES[scenario.vehicle])
+        navigator = resolve_method(name).navigator(config, VEHICLES[scenario.vehicle])
         assert isinstance(navigator, ObstacleNavigator)  # not EscapeNavigator
         assert navigator.field is fields.obstacle_field
 

@@ -19,9 +19,12 @@ from mfi_drake.config.scenario import Obstacle, Scenario, Sphere
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.methods import (
+    ALIASES,
     DEFAULT_METHODS,
+    METHOD_NAMES,
     METHODS,
     MethodError,
+    appearance,
     resolve_method,
 )
 from mfi_drake.flight.simulator import fly
@@ -85,15 +88,20 @@ def _short(scenario: Scenario, duration: float) -> Scenario:
 
 
 def test_registry_names_label_and_colour_every_method():
-    assert list(METHODS) == [
-        *("mfi", "mfi-paper", "apf", "gf"),
-        *("mfi-memoryless", "mfi-nc"),
-    ]
+    assert list(METHODS) == [*("mfi", "mfi-paper", "apf", "gf"), "mfi-memoryless"]
     # The paper's comparison and the published tables fly these unless told.
     assert DEFAULT_METHODS == ("mfi", "mfi-paper", "apf", "gf")
     for name, method in METHODS.items():
         assert method.name == name and method.label and method.colour
         assert resolve_method(name) is method
+    # An alias is its method under the name it was asked for (a record of
+    # "mfi-nc" keeps its name), and every name is listed once.
+    assert ALIASES == {"mfi-nc": "mfi"}
+    assert METHOD_NAMES == (*METHODS, "mfi-nc")
+    alias = resolve_method("mfi-nc")
+    assert alias.name == "mfi-nc"
+    assert dataclasses.replace(alias, name="mfi") == METHODS["mfi"]
+    assert appearance("mfi-nc") == appearance("mfi")
 
 
 def test_a_user_field_equal_to_apf_flies_the_apf_flight_exactly():

@@ -9,7 +9,7 @@ import os
 import textwrap
 
 from mfi_drake.config.scenario_yaml import read_override
-from mfi_drake.flight.methods import METHODS, MethodError, resolve_method
+from mfi_drake.flight.methods import METHOD_NAMES, MethodError, resolve_method
 from mfi_drake.world.validation import least_goal_gap, load_scenario
 
 EXIT_BAD_INPUT = 2
@@ -83,7 +83,7 @@ def parse_methods(text: str) -> list[str]:
     methods = [m.strip() for m in text.split(",")]
     if not all(methods) or len(set(methods)) < len(methods):
         raise UsageError(
-            f"--methods = {text!r}: must be distinct names from {sorted(METHODS)} "
+            f"--methods = {text!r}: must be distinct names from {sorted(METHOD_NAMES)} "
             "or MODULE:NAME, separated by commas"
         )
     for method in methods:

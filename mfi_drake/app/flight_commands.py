@@ -23,7 +23,12 @@ from mfi_drake.app.arguments import (
     parse_methods,
     scenario_of,
 )
-from mfi_drake.flight.methods import DEFAULT_METHODS, METHODS, resolve_method
+from mfi_drake.flight.methods import (
+    DEFAULT_METHODS,
+    METHOD_NAMES,
+    METHODS,
+    resolve_method,
+)
 
 
 def summary_line(metrics: dict) -> str:
@@ -201,7 +206,7 @@ def cmd_analyze(args) -> int:
 
 def add_run(sub) -> None:
     """The `run` command's parser, added to the subparsers `sub`."""
-    methods = ", ".join(METHODS)
+    methods = ", ".join(METHOD_NAMES)
     run = add_parser(
         sub,
         "run",
@@ -299,7 +304,7 @@ def add_reproduce(sub) -> None:
 
 def add_diagram(sub) -> None:
     """The `diagram` command's parser, added to the subparsers `sub`."""
-    methods = ", ".join(METHODS)
+    methods = ", ".join(METHOD_NAMES)
     diagram = add_parser(
         sub,
         "diagram",

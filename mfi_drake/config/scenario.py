@@ -254,7 +254,7 @@ class Scenario:
     )
     apf: ApfParams = field(default_factory=ApfParams)  # the APF baseline's gains
     gf: GfParams = field(default_factory=GfParams)  # the GF baseline's gains
-    # The escape rule of method "mfi-nc" (docs/nonconvex.md), with MFI's gains.
+    # The escape rule of MFI (docs/nonconvex.md), with MFI's gains.
     escape: EscapeParams = field(default_factory=EscapeParams)
     # Keyword arguments of a user's field function (MODULE:NAME methods).
     field_gains: dict[str, float] = field(default_factory=dict)
@@ -385,12 +385,8 @@ def _check_motion(where: str, motion: Motion) -> None:
 
 
 def _check_dynamic(where: str, scenario: Scenario) -> None:
-    """The ground, the other vehicles and the relative-velocity estimate
-    (docs/dynamic.md); `world.validation` checks where the vehicles are."""
-    if scenario.ground is not None:
-        height = scenario.ground.height
-        if not _is_number(height) or not math.isfinite(height):
-            fail(where, "ground.height", height, "must be a finite number")
+    """The other vehicles and how a fleet flies (docs/dynamic.md);
+    `world.validation` checks where the vehicles are."""
     for i, other in enumerate(scenario.other_vehicles):
         _check_vector(where, f"other_vehicles[{i}].start", other.start)
         _check_goal(where, f"other_vehicles[{i}].goal", other.goal)
@@ -419,15 +415,6 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
             scenario.engine,
             "a fleet flies compiled on one integrator (fleet_integration: one)",
         )
-    estimate = scenario.relative_velocity
-    _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
-    _check_positive(where, "relative_velocity.gate", estimate.gate)
-    tau = estimate.time_constant
-    if not _is_number(tau) or not math.isfinite(tau) or tau < 0.0:
-        fail(where, "relative_velocity.time_constant", tau, "must be a number ≥ 0")
-    turn = estimate.keep_right
-    if not _is_number(turn) or not 0.0 <= turn < 90.0:
-        fail(where, "relative_velocity.keep_right", turn, "must be in [0, 90) degrees")
 
 
 def check_scenario(scenario: Scenario, where: str) -> None:
@@ -439,6 +426,14 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     _check_goal(where, "goal", scenario.goal)
     _check_positive(where, "duration", scenario.duration)
     _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
+    check_navigation_fields(scenario, where)
+    _check_world(where, scenario)
+
+
+def check_navigation_fields(scenario: object, where: str) -> None:
+    """The fields a Scenario shares with a `config.navigation.NavigationConfig`
+    (`scenario`: either): vehicle, sensor, every method's gains, faults,
+    ground, relative velocity."""
     for name, value, reason in vehicle_field_problems(scenario.vehicle):
         fail(where, name, value, reason)
     if isinstance(scenario.sensor, SphereSensor):
@@ -461,6 +456,22 @@ def check_scenario(scenario: Scenario, where: str) -> None:
             fail(where, f"field_gains.{name}", value, "must be a finite number")
     for name, value, reason in fault_problems(scenario.faults):
         fail(where, f"faults.{name}", value, reason)
+    if scenario.ground is not None:
+        height = scenario.ground.height
+        if not _is_number(height) or not math.isfinite(height):
+            fail(where, "ground.height", height, "must be a finite number")
+    estimate = scenario.relative_velocity
+    _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
+    _check_positive(where, "relative_velocity.gate", estimate.gate)
+    tau = estimate.time_constant
+    if not _is_number(tau) or not math.isfinite(tau) or tau < 0.0:
+        fail(where, "relative_velocity.time_constant", tau, "must be a number ≥ 0")
+    turn = estimate.keep_right
+    if not _is_number(turn) or not 0.0 <= turn < 90.0:
+        fail(where, "relative_velocity.keep_right", turn, "must be in [0, 90) degrees")
+
+
+def _check_world(where: str, scenario: Scenario) -> None:
     sim = scenario.simulator
     _check_positive(where, "simulator.accuracy", sim.accuracy)
     _check_positive(where, "simulator.max_step_size", sim.max_step_size)

@@ -14,6 +14,7 @@ from pydrake.examples import QuadrotorPlant
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
+from mfi_drake.config.navigation import NavigationConfig
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicle_gains import for_vehicle
@@ -44,12 +45,13 @@ class AnalysisDiagram:
 
 
 def build_analysis_diagram(
-    scenario: Scenario,
+    scenario: Scenario | NavigationConfig,
     mode: int = fields.MODE_PD,
     attitude_K: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> AnalysisDiagram:
-    """The MFI closed loop of `scenario` with eq 21's `mode` fixed and no
-    obstacle seen; `attitude_K` = (K_Pθ, K_Dθ) overrides eq 25's gains."""
+    """The MFI closed loop of `scenario` (or a NavigationConfig: its goal,
+    vehicle and navigator gains) with eq 21's `mode` fixed and no obstacle
+    seen; `attitude_K` = (K_Pθ, K_Dθ) overrides eq 25's gains."""
     vehicle = as_vehicle(scenario.vehicle)
     params = for_vehicle(scenario.navigator, vehicle)  # AttitudePD's own too
     goal = np.asarray(scenario.goal, float)
@@ -76,7 +78,7 @@ def build_analysis_diagram(
         add_rotor_path(builder, vehicle, plant.get_input_port(0), True),
     )
     diagram = builder.Build()
-    diagram.set_name(f"mfi_drake analysis[{scenario.name}, mode {mode}]")
+    diagram.set_name(f"mfi_drake analysis[{vehicle.name}, mode {mode}]")
     return AnalysisDiagram(diagram, plant, vehicle, params, goal)
 
 

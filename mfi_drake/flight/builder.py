@@ -12,11 +12,12 @@
     simulator.AdvanceTo(30.0)
 
 `add_navigation` is `flight.chain`'s pieces around the user's plant:
-`add_sensor`, `add_controller` and `add_logger`. Every proximity geometry
-of the SceneGraph is an obstacle, whoever registered it; the vehicle's own
-never is. `flight.diagram.build_diagram` builds a scenario's diagram the
-same way (`add_scenario_navigation`), so a scenario's flight and a user's
-flight of the same scene are the same computation.
+`add_sensor`, `add_controller` and `add_logger`, configured by a
+`NavigationConfig` (or keywords naming its fields). Every proximity
+geometry of the SceneGraph is an obstacle, whoever registered it; the
+vehicle's own never is. `flight.diagram.build_diagram` builds a scenario's
+diagram with it too (the scenario's `navigation_config`), so a scenario's
+flight and a user's flight of the same scene are the same computation.
 """
 
 from collections.abc import Callable
@@ -24,7 +25,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 from pydrake.examples import QuadrotorPlant
-from pydrake.geometry import SceneGraph
+from pydrake.geometry import GeometryId, SceneGraph
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RigidBody
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator, SimulatorConfig
@@ -32,22 +33,19 @@ from pydrake.systems.framework import (
     Context,
     DiagramBuilder,
     InputPort,
+    LeafSystem,
     OutputPort,
 )
 from pydrake.systems.primitives import MatrixGain, VectorLogSink
 
 from mfi_drake.config.faults import Faults
+from mfi_drake.config.navigation import NavigationConfig, check_navigation
 from mfi_drake.config.parameters import NavigatorParams
-from mfi_drake.config.scenario import (
-    Scenario,
-    ScenarioError,
-    Sensor,
-    SphereSensor,
-    check_scenario,
-)
+from mfi_drake.config.scenario import ScenarioError, Sensor, SphereSensor
 from mfi_drake.config.vehicles import Vehicle, VehicleError, as_vehicle
 from mfi_drake.flight.chain import (
     CameraMount,
+    Controller,
     add_controller,
     add_logger,
     add_sensor,
@@ -88,23 +86,18 @@ def apply_simulator_config(config: SimulatorConfig, simulator: Simulator) -> Non
 
 
 @dataclass
-class NavigationHandles:
-    """What `add_navigation` added, and how to start and read a flight."""
+class NavigationHandles(Controller):
+    """What `add_navigation` added (the `Controller`'s systems and more), and
+    how to start and read a flight."""
 
-    sensor: object  # its output "obstacle" is what the navigator reads
-    navigator: object
-    selector: object
-    attitude_pd: object
-    mixer: object
+    config: NavigationConfig  # as flown: its vehicle, its method's name
+    sensor: LeafSystem  # its output "obstacle" is what the navigator reads
     logger: VectorLogSink  # LOG_LAYOUT, once per integrator step
     state: OutputPort  # the vehicle's true 12-vector state the chain reads
-    estimate: OutputPort  # the state the controller reads (through `faults`)
     rotor_command: InputPort  # the 4 rotor forces the mixer drives
     vehicle: Vehicle
-    method: str  # its registry name, or a user field's MODULE:NAME
-    plant: object  # the user's QuadrotorPlant or MultibodyPlant
     body: RigidBody | None  # a MultibodyPlant vehicle's floating body
-    ignored: frozenset  # GeometryIds never seen as obstacles: the vehicle's own
+    ignored: frozenset[GeometryId]  # never seen as obstacles: the vehicle's own
     place: Callable[[Context, np.ndarray], None] = field(repr=False)
 
     def set_start(self, root_context: Context, position) -> None:
@@ -128,82 +121,146 @@ def add_navigation(
     builder: DiagramBuilder,
     plant: QuadrotorPlant | MultibodyPlant,
     scene_graph: SceneGraph,
-    goal,
+    goal=None,
     *,
+    config: NavigationConfig | None = None,
     body: str | RigidBody | None = None,
-    method: "str | Callable | Method" = "mfi",
-    vehicle: "str | Vehicle" = "drake_default",
+    method: "str | Callable | Method | None" = None,
+    vehicle: "str | Vehicle | None" = None,
     sensor: Sensor | None = None,
     navigator: NavigatorParams | dict | None = None,
     faults: Faults | None = None,
+    check_goal: bool = True,
+    map_points: np.ndarray | None = None,
 ) -> NavigationHandles:
     """Adds MFI navigation (or `method`'s) to `builder`: a sensor reading
     `scene_graph`, the navigator, the goal attraction, eq 25's attitude PD
-    and the mixer, from `plant`'s state to its rotor forces, flying to
-    `goal` [x, y, z] (m), and a logger of LOG_LAYOUT.
+    and the mixer, from `plant`'s state to its rotor forces, and a logger
+    of LOG_LAYOUT; returns their handles.
 
     `plant`: Drake's QuadrotorPlant in `builder`, or a finalized
     MultibodyPlant with `body`, the vehicle's floating body (its name or
-    the RigidBody), driven by Drake's Propeller. `scene_graph`: the
-    SceneGraph in `builder`; every proximity geometry in it is an
-    obstacle, whoever registered it, but the vehicle's own (the geometry on
-    `body`'s frame).
+    the RigidBody), driven by Drake's Propeller; the body's own mass and
+    inertia replace the vehicle's (`body_vehicle`). `scene_graph`: the
+    SceneGraph in `builder`; every proximity geometry in it is an obstacle
+    but the vehicle's own (on `body`'s frame).
 
-    Keywords, as a scenario's fields: `method` ("mfi", "apf", "gf",
-    "mfi-paper", "MODULE:NAME" of a user's field, or the function);
-    `vehicle` (a preset's name or a `Vehicle`, `config.vehicles`: the
-    controller's mass, inertia and rotor constants; a MultibodyPlant
-    `body`'s own mass and inertia replace the vehicle's, `body_vehicle`);
-    `sensor` (`SphereSensor`, default, or a camera rig); `navigator`
-    (NavigatorParams, or a dict of its fields overriding the defaults);
-    `faults` (`Faults`).
+    What to fly: `config`, a `NavigationConfig` (Drake's `Apply*Config`
+    idiom), or keywords naming its fields: `goal` [x, y, z] (m), `method`
+    (default "mfi"; a name, "MODULE:NAME" of a user's field, or the
+    function), `vehicle` (a preset's name or a `Vehicle`; default
+    "drake_default"), `sensor`, `navigator` (NavigatorParams, or a dict of
+    its fields) and `faults`. Beside `config` only `method` may be given
+    (a function or a `Method`, which a config's string cannot hold).
 
-    The goal is checked, at build time, against the geometry whose pose is
-    known then: anchored geometry, and a finalized MultibodyPlant's at its
-    default context (exact for welded bodies; free bodies where they are by
-    default); geometry another source moves is not checked.
+    `check_goal`: refuse a goal where the vehicle would touch an obstacle
+    (`_check_goal`). `map_points` (n, 3): a point-cloud map the sensor
+    reads instead of `scene_graph` (`add_sensor`).
 
-    Simulating needs one line beyond a plain Simulator, because eq 21's
-    witness functions need the context's accuracy:
-
-        apply_simulator_config(default_simulator_config(), simulator)
-
-    then `handles.set_start(simulator.get_mutable_context(), start)`.
-    Raises BuilderError naming the first bad argument."""
-    scenario = navigation_scenario(
-        goal, vehicle=vehicle, sensor=sensor, navigator=navigator, faults=faults
+    A plain Simulator also needs `apply_simulator_config` (eq 21's
+    witnesses read the context's accuracy), then `handles.set_start`.
+    Raises BuilderError naming the first bad argument, adding nothing."""
+    keywords = {"goal": goal, "vehicle": vehicle, "sensor": sensor}
+    keywords |= {"navigator": navigator, "faults": faults}
+    config, resolved = _checked_config(config, method, keywords)
+    rig = _vehicle(builder, plant, body, scene_graph, config)
+    config = replace(config, vehicle=rig.vehicle)
+    if check_goal:
+        _check_goal(builder, scene_graph, config.goal, rig.vehicle, rig.ignored)
+    rig.connect()  # nothing is added to builder before every check has passed
+    moving = config.moving_obstacles or scene_moves(builder, scene_graph, rig.ignored)
+    config = replace(config, moving_obstacles=moving)
+    sensor = add_sensor(
+        builder,
+        config.sensor,
+        scene_graph,
+        rig.state,
+        vehicle=rig.vehicle,
+        other_vehicles=config.other_vehicles,
+        moving=moving,
+        ignore=rig.ignored,
+        mount=rig.mount,
+        map_points=map_points,
     )
-    return add_scenario_navigation(
-        builder, scenario, plant, scene_graph, method, body=body
+    controller = add_controller(
+        builder, config, rig.state, sensor, rig.rotor_command, method=resolved
+    )
+    return NavigationHandles(
+        **vars(controller),
+        config=config,
+        sensor=sensor,
+        logger=add_logger(builder, rig.state, sensor, controller),
+        state=rig.state,
+        rotor_command=rig.rotor_command,
+        vehicle=rig.vehicle,
+        body=rig.body,
+        ignored=rig.ignored,
+        place=rig.place,
     )
 
 
-def navigation_scenario(
+def _checked_config(
+    config: NavigationConfig | None, method, keywords: dict
+) -> tuple[NavigationConfig, Method]:
+    """`config`, or the config of `add_navigation`'s `keywords` where it is
+    None, and its method (`method` where given), resolved and checked;
+    raises BuilderError naming the first bad argument."""
+    if config is None:
+        config = _keyword_config(**keywords)
+    else:
+        for name, value in keywords.items():
+            if value is not None:
+                raise BuilderError(
+                    f"{name} = {value!r}: given with config; set config.{name}"
+                )
+    try:
+        resolved = resolve_method(config.method if method is None else method)
+    except MethodError as e:
+        raise BuilderError(f"method = {method or config.method!r}: {e}") from None
+    config = replace(config, method=resolved.name)
+    try:
+        check_navigation(config, "add_navigation")
+        as_vehicle(config.vehicle)
+    except (ScenarioError, VehicleError) as e:
+        raise BuilderError(str(e)) from None
+    return config, resolved
+
+
+def _keyword_config(
     goal,
-    *,
-    vehicle: "str | Vehicle" = "drake_default",
-    sensor: Sensor | None = None,
-    navigator: NavigatorParams | dict | None = None,
-    faults: Faults | None = None,
-) -> Scenario:
-    """The Scenario that holds `add_navigation`'s keywords (its other fields
-    at their defaults), checked as a loaded scenario is; raises BuilderError
-    naming the first bad one."""
+    vehicle: "str | Vehicle | None",
+    sensor: Sensor | None,
+    navigator: NavigatorParams | dict | None,
+    faults: Faults | None,
+) -> NavigationConfig:
+    """The NavigationConfig of `add_navigation`'s keywords, the others at
+    their defaults; raises BuilderError naming a keyword of a wrong type."""
     if faults is not None and not isinstance(faults, Faults):
         raise BuilderError(f"faults = {faults!r}: must be a Faults")
-    scenario = Scenario(
-        name="add_navigation",
+    return NavigationConfig(
         goal=_point("goal", goal).tolist(),
-        vehicle=vehicle,
+        vehicle="drake_default" if vehicle is None else vehicle,
         sensor=SphereSensor() if sensor is None else sensor,
         navigator=_navigator_params(navigator),
         faults=Faults() if faults is None else faults,
     )
-    try:
-        check_scenario(scenario, "add_navigation")
-    except ScenarioError as e:
-        raise BuilderError(str(e)) from None
-    return scenario
+
+
+def _check_goal(builder, scene_graph, goal, vehicle: Vehicle, ignored) -> None:
+    """Raises BuilderError where the vehicle at `goal` would touch geometry
+    whose pose is known at build time: anchored geometry, and a finalized
+    MultibodyPlant's at its default context (exact for welded bodies; free
+    bodies where they are by default); geometry another source moves is
+    not checked."""
+    touched = goal_obstacle(
+        builder, scene_graph, goal, vehicle.collision_radius, ignored
+    )
+    if touched:
+        raise BuilderError(
+            f"goal = {goal}: the vehicle there (collision radius "
+            f"{vehicle.collision_radius} m) would touch the obstacle "
+            f"{touched[0]!r} (distance {touched[1]:.3f} m)"
+        )
 
 
 def _point(name: str, value) -> np.ndarray:
@@ -237,105 +294,23 @@ def _navigator_params(navigator) -> NavigatorParams:
     return replace(NavigatorParams(), **navigator)
 
 
-def add_scenario_navigation(
-    builder: DiagramBuilder,
-    scenario: Scenario,
-    plant: QuadrotorPlant | MultibodyPlant,
-    scene_graph: SceneGraph,
-    method: "str | Callable | Method" = "mfi",
-    *,
-    body: str | RigidBody | None = None,
-    check_goal: bool = True,
-) -> NavigationHandles:
-    """`add_navigation` with its keywords given by a Scenario's navigation
-    fields (goal, vehicle, sensor, the method's gains, relative_velocity,
-    other_vehicles, faults); `flight.diagram.build_diagram` builds every
-    scenario's diagram with it. `check_goal`: refuse a goal where the
-    vehicle would touch an obstacle (see `add_navigation`)."""
-    try:
-        method = resolve_method(method)
-    except MethodError as e:
-        raise BuilderError(f"method = {method!r}: {e}") from None
-    try:
-        vehicle = as_vehicle(scenario.vehicle)
-    except VehicleError as e:
-        raise BuilderError(str(e)) from None
-    _check_added(builder, "scene_graph", scene_graph, SceneGraph)
-    rig = _vehicle(builder, plant, body, scene_graph, scenario)
-    if rig.vehicle is not None:  # a MultibodyPlant body's own mass and inertia
-        vehicle = rig.vehicle
-        scenario = replace(scenario, vehicle=vehicle)
-    ignored = own_geometry(scene_graph, rig.own_frames)
-    touched = check_goal and goal_obstacle(
-        builder, scene_graph, scenario.goal, vehicle.collision_radius, ignored
-    )
-    if touched:
-        raise BuilderError(
-            f"goal = {scenario.goal}: the vehicle there (collision radius "
-            f"{vehicle.collision_radius} m) would touch the obstacle "
-            f"{touched[0]!r} (distance {touched[1]:.3f} m)"
-        )
-    rig.connect()  # nothing is added to builder before every check has passed
-    moving = scene_moves(builder, scene_graph, ignored)
-    sensor = add_sensor(
-        builder,
-        scenario.sensor,
-        scene_graph,
-        rig.state,
-        vehicle=vehicle,
-        other_vehicles=len(scenario.other_vehicles),
-        moving=moving,
-        ignore=ignored,
-        mount=rig.mount,
-        map_points=np.asarray(scenario.map_points, dtype=float).reshape(-1, 3),
-    )
-    controller = add_controller(
-        builder,
-        scenario,
-        rig.state,
-        sensor,
-        rig.rotor_command,
-        method=method,
-        moving=moving,
-    )
-    logger = add_logger(builder, rig.state, sensor, controller)
-    return NavigationHandles(
-        sensor=sensor,
-        navigator=controller.navigator,
-        selector=controller.selector,
-        attitude_pd=controller.attitude_pd,
-        mixer=controller.mixer,
-        logger=logger,
-        state=rig.state,
-        estimate=controller.estimate,
-        rotor_command=rig.rotor_command,
-        vehicle=vehicle,
-        method=method.name,
-        plant=plant,
-        body=rig.body,
-        ignored=ignored,
-        place=rig.place,
-    )
-
-
 @dataclass
 class _Rig:
     """How the chain meets a plant: its state and rotor ports (once
-    `connect` has added what they need), the frames of its own geometry,
-    where cameras ride and how it is placed at a start."""
+    `connect` has added what they need), its own geometry, where cameras
+    ride and how it is placed at a start."""
 
-    own_frames: tuple
+    vehicle: Vehicle  # a MultibodyPlant body's own mass and inertia
+    ignored: frozenset[GeometryId]  # its own geometry, no obstacle
     mount: CameraMount | None
     place: Callable[[Context, np.ndarray], None]
+    add_ports: Callable[[], tuple[OutputPort, InputPort]]
     body: RigidBody | None = None
     state: OutputPort | None = None
     rotor_command: InputPort | None = None
-    add_ports: Callable[[], tuple[OutputPort, InputPort]] | None = None
-    vehicle: Vehicle | None = None  # a MultibodyPlant body's, where it differs
 
     def connect(self) -> None:
-        if self.add_ports is not None:
-            self.state, self.rotor_command = self.add_ports()
+        self.state, self.rotor_command = self.add_ports()
 
 
 def _check_added(builder: DiagramBuilder, name: str, system, kind) -> None:
@@ -347,14 +322,16 @@ def _check_added(builder: DiagramBuilder, name: str, system, kind) -> None:
         raise BuilderError(f"{name} = {system.get_name()!r}: is not in builder")
 
 
-def _vehicle(builder, plant, body, scene_graph, scenario: Scenario) -> _Rig:
+def _vehicle(builder, plant, body, scene_graph, config: NavigationConfig) -> _Rig:
+    _check_added(builder, "scene_graph", scene_graph, SceneGraph)
     if isinstance(plant, QuadrotorPlant):
         _check_added(builder, "plant", plant, QuadrotorPlant)
         if body is not None:
             raise BuilderError(f"body = {body!r}: only a MultibodyPlant has bodies")
-        vehicle = as_vehicle(scenario.vehicle)
+        vehicle = as_vehicle(config.vehicle)
         return _Rig(
-            own_frames=(),
+            vehicle=vehicle,
+            ignored=frozenset(),
             mount=None,
             place=lambda context, p: place_quadrotor(plant, context, p),
             add_ports=lambda: (
@@ -364,7 +341,7 @@ def _vehicle(builder, plant, body, scene_graph, scenario: Scenario) -> _Rig:
         )
     if isinstance(plant, MultibodyPlant):
         _check_added(builder, "plant", plant, MultibodyPlant)
-        return _multibody_vehicle(builder, plant, body, scene_graph, scenario)
+        return _multibody_vehicle(builder, plant, body, scene_graph, config)
     raise BuilderError(
         f"plant = {type(plant).__name__}: must be a QuadrotorPlant or a MultibodyPlant"
     )
@@ -378,7 +355,7 @@ def place_quadrotor(plant: QuadrotorPlant, root_context: Context, position) -> N
     plant.GetMyMutableContextFromRoot(root_context).SetContinuousState(x0)
 
 
-def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
+def _multibody_vehicle(builder, plant, body, scene_graph, config) -> _Rig:
     """The MultibodyPlant vehicle: its `body`'s pose and velocity as
     QuadrotorPlant's state, Drake's Propellers on it (`systems.multibody`)."""
     if not plant.is_finalized():
@@ -387,7 +364,7 @@ def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
             "before add_navigation"
         )
     rigid = _floating_body(plant, body)
-    vehicle = body_vehicle(as_vehicle(scenario.vehicle), rigid)
+    vehicle = body_vehicle(as_vehicle(config.vehicle), rigid)
     own, mount = (), None
     if (
         plant.geometry_source_is_registered()
@@ -396,7 +373,7 @@ def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
         frame = plant.GetBodyFrameIdOrThrow(rigid.index())
         own = (frame,)
         mount = CameraMount(frame, plant.get_geometry_pose_output_port())
-    elif not isinstance(scenario.sensor, SphereSensor):
+    elif not isinstance(config.sensor, SphereSensor):
         raise BuilderError(
             f"plant = {plant.get_name()!r}: cameras need the vehicle in "
             "scene_graph (register the plant with it)"
@@ -415,7 +392,8 @@ def _multibody_vehicle(builder, plant, body, scene_graph, scenario) -> _Rig:
             plant, plant.GetMyMutableContextFromRoot(context), rigid, position
         )
 
-    return _Rig(own, mount, place, body=rigid, add_ports=add_ports, vehicle=vehicle)
+    ignored = own_geometry(scene_graph, own)
+    return _Rig(vehicle, ignored, mount, place, add_ports, body=rigid)
 
 
 def body_vehicle(vehicle: Vehicle, body: RigidBody) -> Vehicle:

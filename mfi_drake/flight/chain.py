@@ -12,22 +12,29 @@ QuadrotorPlant (or of the Propeller that drives a MultibodyPlant vehicle).
 a user who wants only the sensor or only the controller calls one.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.geometry import FrameId, GeometryId, Role, SceneGraph
-from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort
+from pydrake.systems.framework import (
+    DiagramBuilder,
+    InputPort,
+    LeafSystem,
+    OutputPort,
+    System,
+)
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSink
 
 from mfi_drake.config.faults import Faults
-from mfi_drake.config.scenario import Cameras, Scenario, Sensor, SphereSensor
+from mfi_drake.config.navigation import NavigationConfig, check_navigation
+from mfi_drake.config.scenario import Cameras, Sensor, SphereSensor
 from mfi_drake.config.vehicles import Vehicle, as_vehicle
-from mfi_drake.flight.methods import Method, mfi_navigator, resolve_method
+from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE, slices
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.camera import add_depth_cameras
 from mfi_drake.systems.control import AttitudePD, RotorMixer
-from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.exchange import OtherVehicleReadings, OtherVehicleSpheres
 from mfi_drake.systems.faults import (
     add_rotor_faults,
@@ -97,7 +104,7 @@ def add_sensor(
     ignore=(),
     mount: CameraMount | None = None,
     map_points: np.ndarray | None = None,
-):
+) -> LeafSystem:
     """Adds the sensor of the configuration `sensor` (a `SphereSensor` or a
     camera rig, `config.scenario`), named "sensor", reading `scene_graph`
     from the vehicle's state `state_port`; returns the system whose output
@@ -121,36 +128,15 @@ def add_sensor(
 
     `map_points` (n, 3): a point-cloud map (`Scenario.map_points`), read
     by a `PointMapSensor` instead of `scene_graph`'s geometry."""
-    radius = as_vehicle(vehicle).collision_radius
+    vehicle = as_vehicle(vehicle)
     mapped = map_points is not None and len(map_points) > 0
     if mapped and not isinstance(sensor, SphereSensor):
         raise TypeError(f"sensor = {sensor!r}: a point-cloud map has no surfaces")
     if isinstance(sensor, Cameras):
         if mount is None:
-            geometry = builder.AddNamedSystem(
-                "vehicle_geometry",
-                VehicleGeometry(
-                    scene_graph,
-                    as_vehicle(vehicle).arm_length,
-                    as_vehicle(vehicle).rotor_radius,
-                ),
-            )
-            builder.Connect(state_port, geometry.get_input_port(0))
-            builder.Connect(
-                geometry.get_output_port(0),
-                scene_graph.get_source_pose_port(geometry.source_id),
-            )
-            mount = CameraMount(geometry.frame_id, geometry.get_output_port(0))
+            mount = _drawn_vehicle(builder, scene_graph, state_port, vehicle)
         if other_vehicles:
-            spheres = builder.AddNamedSystem(
-                "other_vehicles",
-                OtherVehicleSpheres(scene_graph, other_vehicles, radius),
-            )
-            builder.Connect(
-                spheres.get_output_port(),
-                scene_graph.get_source_pose_port(spheres.source_id),
-            )
-            builder.ExportInput(spheres.get_input_port(), "other_vehicles")
+            _add_other_vehicles(builder, scene_graph, other_vehicles, vehicle)
         return add_depth_cameras(
             builder,
             sensor,
@@ -158,7 +144,7 @@ def add_sensor(
             mount.frame_id,
             mount.pose_port,
             # Beyond the own sphere where the vehicle has shapes in SceneGraph.
-            clear_of=radius if other_vehicles or ignore else 0.0,
+            clear_of=vehicle.collision_radius if other_vehicles or ignore else 0.0,
         )
     if not isinstance(sensor, SphereSensor):
         raise TypeError(f"sensor = {sensor!r}: not a SphereSensor or camera rig")
@@ -178,10 +164,62 @@ def add_sensor(
     builder.Connect(state_port, system.GetInputPort("state"))
     if not other_vehicles:
         return system
-    readings = builder.AddNamedSystem(
-        "sensor", OtherVehicleReadings(other_vehicles, radius, sensor.radius)
+    return _fleet_readings(builder, system, state_port, other_vehicles, vehicle, sensor)
+
+
+def _drawn_vehicle(
+    builder: DiagramBuilder,
+    scene_graph: SceneGraph,
+    state_port: OutputPort,
+    vehicle: Vehicle,
+) -> CameraMount:
+    """The mount of cameras on a vehicle that has no shapes in SceneGraph:
+    a `VehicleGeometry` "vehicle_geometry" posed from `state_port`."""
+    geometry = builder.AddNamedSystem(
+        "vehicle_geometry",
+        VehicleGeometry(scene_graph, vehicle.arm_length, vehicle.rotor_radius),
     )
-    builder.Connect(system.GetOutputPort("obstacle"), readings.GetInputPort("obstacle"))
+    builder.Connect(state_port, geometry.get_input_port(0))
+    builder.Connect(
+        geometry.get_output_port(0),
+        scene_graph.get_source_pose_port(geometry.source_id),
+    )
+    return CameraMount(geometry.frame_id, geometry.get_output_port(0))
+
+
+def _add_other_vehicles(
+    builder: DiagramBuilder, scene_graph: SceneGraph, count: int, vehicle: Vehicle
+) -> None:
+    """The other vehicles of a fleet as spheres in SceneGraph, posed from
+    the exported input "other_vehicles", for cameras to see."""
+    spheres = builder.AddNamedSystem(
+        "other_vehicles",
+        OtherVehicleSpheres(scene_graph, count, vehicle.collision_radius),
+    )
+    builder.Connect(
+        spheres.get_output_port(),
+        scene_graph.get_source_pose_port(spheres.source_id),
+    )
+    builder.ExportInput(spheres.get_input_port(), "other_vehicles")
+
+
+def _fleet_readings(
+    builder: DiagramBuilder,
+    scene_sensor: LeafSystem,
+    state_port: OutputPort,
+    other_vehicles: int,
+    vehicle: Vehicle,
+    sensor: SphereSensor,
+) -> OtherVehicleReadings:
+    """The sphere sensor's readings with the other vehicles' spheres of the
+    exported input "other_vehicles" (`systems.exchange`)."""
+    readings = builder.AddNamedSystem(
+        "sensor",
+        OtherVehicleReadings(other_vehicles, vehicle.collision_radius, sensor.radius),
+    )
+    builder.Connect(
+        scene_sensor.GetOutputPort("obstacle"), readings.GetInputPort("obstacle")
+    )
     builder.Connect(state_port, readings.GetInputPort("state"))
     builder.ExportInput(readings.GetInputPort("other_vehicles"), "other_vehicles")
     return readings
@@ -192,8 +230,8 @@ class Controller:
     """The systems `add_controller` adds, and the port of the state
     estimate they read."""
 
-    navigator: object
-    selector: object
+    navigator: System  # a LeafSystem, or the relative navigator's Diagram
+    selector: LeafSystem  # the goal attraction (eq 16–21's for MFI)
     attitude_pd: AttitudePD
     mixer: RotorMixer
     estimate: OutputPort
@@ -201,53 +239,52 @@ class Controller:
 
 def add_controller(
     builder: DiagramBuilder,
-    scenario: Scenario,
+    config: NavigationConfig,
     state_port: OutputPort,
-    sensor,
+    sensor: System,
     rotor_input: InputPort,
     *,
-    method: "str | Method" = "mfi",
-    moving: bool = False,
+    method: "str | Callable | Method | None" = None,
 ) -> Controller:
     """Adds the method's navigator "navigator" and goal attraction
     "selector", eq 25's "attitude_pd" and the "mixer", and closes the loop
     from the vehicle's state `state_port` to the 4 rotor forces
-    `rotor_input`, through the scenario's faults. `scenario` gives the
-    navigation fields (goal, vehicle, the method's gains, sensor,
-    relative_velocity, other_vehicles, faults). `sensor`: a system with the
-    output "obstacle" (`add_sensor`'s, or the user's own); the navigator
-    also reads its "obstacle_velocity" and "vehicle_readings" where it has
-    them, and a "state" input of it left unconnected gets the state
-    estimate (a camera places its images with it, as on board). `moving`:
-    whether obstacles move (a dynamic scene, `navigator_of`). A navigator
-    with the input "scene" (mfi-nc in a fleet) reads the sensor's "scene"."""
-    method = resolve_method(method)
-    vehicle = as_vehicle(scenario.vehicle)
+    `rotor_input`, through the config's faults. `config` gives the goal,
+    vehicle, method, gains, sensor and what the navigator knows of the
+    scene (`NavigationConfig`); `method` (a name, a user's field or a
+    `Method`) replaces its `method`. `sensor`: a system with the output
+    "obstacle" (`add_sensor`'s, or the user's own); the navigator also
+    reads its "obstacle_velocity", "vehicle_readings" and "scene" (MFI's
+    escape memory in a fleet) where it has them, and a "state" input of it
+    left unconnected gets the state estimate (a camera places its images
+    with it, as on board). Raises ScenarioError naming a bad field of
+    `config`."""
+    check_navigation(config, "add_controller")
+    method = resolve_method(config.method if method is None else method)
+    vehicle = as_vehicle(config.vehicle)
     navigator = builder.AddNamedSystem(
-        "navigator", navigator_of(scenario, method, vehicle, moving)
+        "navigator", navigator_of(config, method, vehicle)
     )
     selector = builder.AddNamedSystem(
-        "selector", method.goal_attraction(scenario, vehicle)
+        "selector", method.goal_attraction(config, vehicle)
     )
     attitude = builder.AddNamedSystem(
-        "attitude_pd", AttitudePD(vehicle, scenario.navigator)
+        "attitude_pd", AttitudePD(vehicle, config.navigator)
     )
     mixer = builder.AddNamedSystem("mixer", RotorMixer(vehicle))
-    # `knows_velocities`; the rule of the road among vehicles; the static
-    # scene without them (mfi-nc's memory in a fleet).
     for name in ("obstacle_velocity", "vehicle_readings", "scene"):
         if navigator.HasInputPort(name):
             builder.Connect(sensor.GetOutputPort(name), navigator.GetInputPort(name))
     estimate = connect_controller(
         builder,
         state_port,
-        add_sensor_faults(builder, scenario.faults, sensor.GetOutputPort("obstacle")),
+        add_sensor_faults(builder, config.faults, sensor.GetOutputPort("obstacle")),
         navigator,
         selector,
         attitude,
         mixer,
         rotor_input,
-        scenario.faults,
+        config.faults,
     )
     if sensor.HasInputPort("state"):
         state = sensor.GetInputPort("state")
@@ -334,45 +371,41 @@ def add_logger(
     return logger
 
 
-def navigator_of(scenario: Scenario, method: Method, vehicle: Vehicle, moving: bool):
-    """The method's navigator; in a dynamic scene (`moving` obstacles or
+def navigator_of(config: NavigationConfig, method: Method, vehicle: Vehicle) -> System:
+    """The method's navigator; in a dynamic scene (moving obstacles or
     other vehicles), with the velocity relative to each obstacle
     (`systems.relative`) when the method's force is a sum over readings
     (MFI and the baselines; a user field gets the vehicle's own velocity,
     as its contract says)."""
-    navigator = method.navigator(scenario, vehicle)
-    if moving and isinstance(navigator, EscapeNavigator):
-        # Obstacles of the SceneGraph move that the scenario does not list
-        # (the builder's): no static scene to remember (`escape_off`).
-        navigator = mfi_navigator(scenario, vehicle)
-    estimate = scenario.relative_velocity
-    dynamic = bool(scenario.other_vehicles) or moving
+    navigator = method.navigator(config, vehicle)
+    estimate = config.relative_velocity
+    dynamic = config.other_vehicles > 0 or config.moving_obstacles
     if dynamic and estimate.enabled and isinstance(navigator, ObstacleNavigator):
         # The rule of the road needs to know which readings are vehicles:
         # the sphere sensor's `OtherVehicleReadings` says, a camera cannot.
-        sensor = scenario.sensor
+        sensor = config.sensor
         keep_right = 0.0
-        if scenario.other_vehicles and isinstance(sensor, SphereSensor):
+        if config.other_vehicles and isinstance(sensor, SphereSensor):
             keep_right = estimate.keep_right
-        if knows_velocities(scenario, moving):
+        if knows_velocities(config):
             return RelativeNavigator(
                 navigator, estimate.own_pace, PACE_BLEND_SPEED, keep_right
             )
         # A camera's readings change once a frame: sampled at its frame rate.
         rate = sensor.rate_hz if isinstance(sensor, Cameras) else estimate.rate_hz
         navigator = relative_navigator(
-            lambda: method.navigator(scenario, vehicle), estimate, rate, keep_right
+            lambda: method.navigator(config, vehicle), estimate, rate, keep_right
         )
     return navigator
 
 
-def knows_velocities(scenario: Scenario, moving: bool) -> bool:
+def knows_velocities(config: NavigationConfig) -> bool:
     """Whether every moving thing the sensor reads comes with its velocity:
     other vehicles seen through `OtherVehicleReadings`, no moving obstacle.
     The relative navigator then reads those velocities and needs no
     estimate from the readings."""
     return (
-        isinstance(scenario.sensor, SphereSensor)
-        and bool(scenario.other_vehicles)
-        and not moving
+        isinstance(config.sensor, SphereSensor)
+        and config.other_vehicles > 0
+        and not config.moving_obstacles
     )

@@ -7,7 +7,7 @@
 
 It is a user's diagram like any other: a SceneGraph with the scenario's
 obstacles, a QuadrotorPlant, and the chain of the public builder API
-(`flight.builder.add_scenario_navigation`, the pieces of `flight.chain`).
+(`flight.builder.add_navigation` given the scenario's `navigation_config`).
 VehicleGeometry is there only where cameras ride on the vehicle.
 Every signal worth reading afterwards goes through one Multiplexer into a
 VectorLogSink that records at every integrator step. The scenario's faults
@@ -27,15 +27,17 @@ navigator where nothing else moves) or posed in SceneGraph for cameras
 
 from dataclasses import dataclass, replace
 
+import numpy as np
 from pydrake.examples import QuadrotorPlant
 from pydrake.geometry import SceneGraph
-from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import VectorLogSink
 
 from mfi_drake.config.dynamic import OtherVehicle
+from mfi_drake.config.navigation import navigation_config
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import Vehicle, as_vehicle
-from mfi_drake.flight.builder import NavigationHandles, add_scenario_navigation
+from mfi_drake.flight.builder import NavigationHandles, add_navigation
 from mfi_drake.flight.chain import LOG_LAYOUT, log_slices
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.systems.motion import ObstacleMotion
@@ -64,7 +66,7 @@ class FlightDiagram:
     plant: QuadrotorPlant
     scene_graph: SceneGraph
     logger: VectorLogSink
-    sensor: object  # the system whose "obstacle" port the navigator reads
+    sensor: LeafSystem  # the system whose "obstacle" port the navigator reads
     handles: NavigationHandles
 
     def log_slices(self) -> dict[str, slice]:
@@ -95,8 +97,14 @@ def build_diagram(scenario: Scenario, method: "str | Method" = "mfi") -> FlightD
     plant = builder.AddNamedSystem("quadrotor", make_plant(vehicle))
     # A loaded scenario's goals are checked with a margin (`world.validation`);
     # a diagram is still built at any goal, to evaluate its outputs there.
-    handles = add_scenario_navigation(
-        builder, scenario, plant, scene_graph, method, check_goal=False
+    handles = add_navigation(
+        builder,
+        plant,
+        scene_graph,
+        config=navigation_config(scenario),
+        method=method,
+        check_goal=False,
+        map_points=np.asarray(scenario.map_points, dtype=float).reshape(-1, 3),
     )
     sensor = handles.sensor
     if sensor.HasOutputPort("frames_rendered"):  # a camera counts its frames

@@ -40,6 +40,7 @@ from pydrake.systems.primitives import (
 
 from mfi_drake.config.dynamic import RelativeVelocity
 from mfi_drake.config.faults import Faults
+from mfi_drake.config.navigation import navigation_config
 from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
 from mfi_drake.config.vehicle_gains import for_vehicle
 from mfi_drake.config.vehicles import as_vehicle
@@ -181,10 +182,8 @@ def on_compiled(scenario: Scenario, methods: list) -> Scenario | None:
 def method_systems(scenario: Scenario, method: Method) -> tuple:
     """(navigator, goal attraction): `method`'s systems for `scenario`,
     whose parameters the compiled chain copies."""
-    vehicle = as_vehicle(scenario.vehicle)
-    return method.navigator(scenario, vehicle), method.goal_attraction(
-        scenario, vehicle
-    )
+    vehicle, config = as_vehicle(scenario.vehicle), navigation_config(scenario)
+    return method.navigator(config, vehicle), method.goal_attraction(config, vehicle)
 
 
 def check_engine(scenario: Scenario, methods: list) -> None:

@@ -1,10 +1,13 @@
 """The registry of navigation methods: MFI, the paper's baselines, and any
 user's own navigation field. Every command, study, figure and animation
-reads methods from here; a new built-in method is one entry of `METHODS`.
+reads methods from here; a new built-in method is one entry of `METHODS`,
+another name of one an entry of `ALIASES` (`resolve_method` reads both).
 
 A method is the two systems of `systems.navigation` that turn the state and
-the obstacle reading into F_n: a navigator and a goal attraction. The §V
-chain (attitude PD, mixer) is the same for every method.
+the obstacle reading into F_n: a navigator and a goal attraction, each made
+for a `NavigationConfig` (`navigation_config(scenario)` for a scenario's)
+and a vehicle. The §V chain (attitude PD, mixer) is the same for every
+method.
 
 A user's field is a plain function `field(position, velocity,
 obstacle_points, goal) -> force` (see `UserFieldNavigator`), named on the
@@ -20,8 +23,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
+from pydrake.systems.framework import LeafSystem
 
-from mfi_drake.config.scenario import Scenario, SphereSensor
+from mfi_drake.config.navigation import NavigationConfig
+from mfi_drake.config.scenario import SphereSensor
 from mfi_drake.config.vehicle_gains import for_vehicle
 from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.systems.escape import EscapeNavigator
@@ -34,7 +39,6 @@ from mfi_drake.systems.navigation import (
     PotentialGoalAttraction,
     UserFieldNavigator,
 )
-from mfi_drake.world.motion import obstacles_move
 
 
 class MethodError(ValueError):
@@ -62,9 +66,11 @@ class Method:
     name: str  # as the run JSON, the sweep records and the CLI name it
     label: str  # in figures and tables
     colour: str  # a matplotlib colour
-    navigator: Callable[[Scenario, Vehicle], object]  # the navigator system
-    goal_attraction: Callable[[Scenario, Vehicle], object]  # the goal attraction
-    parameters: str | None = None  # the Scenario field holding its gains
+    # The navigator system and the goal attraction, for a config and vehicle.
+    navigator: Callable[[NavigationConfig, Vehicle], LeafSystem]
+    goal_attraction: Callable[[NavigationConfig, Vehicle], LeafSystem]
+    # The field holding its gains, a Scenario's and a NavigationConfig's.
+    parameters: str | None = None
     gains: tuple[Gain, ...] = ()  # its documented free gains, for `tune`
     # Flown by compare, reproduce, sweep and tune when no --methods is given
     # (`DEFAULT_METHODS`): the paper's comparison and every published table.
@@ -83,26 +89,99 @@ def _mfi_gains(key: str) -> tuple[Gain, ...]:
     )
 
 
-def _goal(scenario: Scenario) -> np.ndarray:
-    return np.asarray(scenario.goal, float)
+def _goal(config: NavigationConfig) -> np.ndarray:
+    return np.asarray(config.goal, float)
 
 
-def gains(scenario: Scenario, key: str, vehicle: Vehicle):
-    """The scenario's parameters `key` ("navigator", "apf", ...) for
+def gains(config: NavigationConfig, key: str, vehicle: Vehicle):
+    """The config's parameters `key` ("navigator", "apf", ...) for
     `vehicle` (`config.vehicle_gains`: as given for the shipped presets),
     on the time scale of its attitude loop (`navigator`'s)."""
-    return for_vehicle(getattr(scenario, key), vehicle, scenario.navigator)
+    return for_vehicle(getattr(config, key), vehicle, config.navigator)
+
+
+def mfi_navigator(config: NavigationConfig, vehicle: Vehicle) -> "MfiNavigator":
+    """MFI's memoryless navigator, eq 11–15 at the config's `navigator` gains."""
+    return MfiNavigator(
+        gains(config, "navigator", vehicle), _goal(config), vehicle.collision_radius
+    )
+
+
+def escape_off(config: NavigationConfig) -> str | None:
+    """Why MFI flies `config` without the escape rule's memory, or None where
+    it flies with it. The memory remembers static surfaces (hit points, the
+    followed surface, a door's jambs): among moving obstacles there is no
+    static scene to tell from the readings, nor in a fleet whose cameras
+    render the other vehicles into the scene's depth images. With depth
+    cameras the rule follows surfaces beside and below the vehicle that no
+    camera may see (a held-out field's contact, a room's floor): only where
+    the config asks (`escape.cameras`). Elsewhere MFI flies memoryless,
+    as `mfi-memoryless` does (docs/nonconvex.md)."""
+    if config.moving_obstacles:
+        return "obstacles move"
+    if not isinstance(config.sensor, SphereSensor):
+        if config.other_vehicles:
+            return "a fleet with cameras"
+        if not config.escape.cameras:
+            return "cameras (escape.cameras: false)"
+    return None
+
+
+def escape_navigator(
+    config: NavigationConfig, vehicle: Vehicle
+) -> "EscapeNavigator | MfiNavigator":
+    """MFI's navigator: MFI with the escape rule and its memory
+    (`EscapeNavigator`), memoryless where `escape_off` says. In a fleet its
+    memory reads the static scene's readings (`OtherVehicleReadings`'
+    "scene") and its field every reading with the relative velocity where
+    that is on."""
+    if escape_off(config):
+        return mfi_navigator(config, vehicle)
+    fleet = config.other_vehicles > 0
+    relative = config.relative_velocity
+    return EscapeNavigator(
+        gains(config, "navigator", vehicle),
+        _goal(config),
+        vehicle.collision_radius,
+        vehicle.mass,
+        gains(config, "escape", vehicle),
+        None if config.ground is None else config.ground.height,
+        scene=fleet,
+        relative=relative if fleet and relative.enabled else None,
+    )
+
+
+def _mfi_goal(key: str) -> Callable[[NavigationConfig, Vehicle], LeafSystem]:
+    """Eq 16–21's goal attraction of MFI at the config's `key` gains."""
+    return lambda c, vehicle: GoalAttractionSelector(
+        gains(c, key, vehicle), _goal(c), mass=vehicle.mass
+    )
+
+
+def _obstacle_navigator(kind: Callable, key: str) -> Callable:
+    """The navigator `kind` (MfiNavigator, ApfNavigator, GfNavigator) at the
+    config's `key` gains."""
+    return lambda c, vehicle: kind(
+        gains(c, key, vehicle), _goal(c), vehicle.collision_radius
+    )
+
+
+def _potential_goal(key: str) -> Callable[[NavigationConfig, Vehicle], LeafSystem]:
+    """A baseline's goal attraction, the gradient of its potential."""
+    return lambda c, vehicle: PotentialGoalAttraction(
+        gains(c, key, vehicle).attraction, _goal(c)
+    )
 
 
 METHODS: dict[str, Method] = {
+    # The default MFI: the escape rule and its memory in non-convex worlds
+    # (docs/nonconvex.md); in convex worlds its corner brake is all that acts.
     "mfi": Method(
         name="mfi",
         label="MFI",
         colour="tab:blue",
-        navigator=lambda s, vehicle: mfi_navigator(s, vehicle),
-        goal_attraction=lambda s, vehicle: GoalAttractionSelector(
-            gains(s, "navigator", vehicle), _goal(s), mass=vehicle.mass
-        ),
+        navigator=escape_navigator,
+        goal_attraction=_mfi_goal("navigator"),
         parameters="navigator",
         gains=_mfi_gains("navigator"),
     ),
@@ -110,12 +189,8 @@ METHODS: dict[str, Method] = {
         name="mfi-paper",
         label="MFI (paper)",
         colour="tab:cyan",
-        navigator=lambda s, vehicle: MfiNavigator(
-            gains(s, "mfi_paper", vehicle), _goal(s), vehicle.collision_radius
-        ),
-        goal_attraction=lambda s, vehicle: GoalAttractionSelector(
-            gains(s, "mfi_paper", vehicle), _goal(s), mass=vehicle.mass
-        ),
+        navigator=_obstacle_navigator(MfiNavigator, "mfi_paper"),
+        goal_attraction=_mfi_goal("mfi_paper"),
         parameters="mfi_paper",
         gains=_mfi_gains("mfi_paper"),
     ),
@@ -123,12 +198,8 @@ METHODS: dict[str, Method] = {
         name="apf",
         label="APF",
         colour="tab:red",
-        navigator=lambda s, vehicle: ApfNavigator(
-            gains(s, "apf", vehicle), _goal(s), vehicle.collision_radius
-        ),
-        goal_attraction=lambda s, vehicle: PotentialGoalAttraction(
-            gains(s, "apf", vehicle).attraction, _goal(s)
-        ),
+        navigator=_obstacle_navigator(ApfNavigator, "apf"),
+        goal_attraction=_potential_goal("apf"),
         parameters="apf",
         # Khatib's η and ρ₀, and the attraction's stiffness (v_max stays 1 m/s).
         gains=(
@@ -141,12 +212,8 @@ METHODS: dict[str, Method] = {
         name="gf",
         label="GF",
         colour="tab:green",
-        navigator=lambda s, vehicle: GfNavigator(
-            gains(s, "gf", vehicle), _goal(s), vehicle.collision_radius
-        ),
-        goal_attraction=lambda s, vehicle: PotentialGoalAttraction(
-            gains(s, "gf", vehicle).attraction, _goal(s)
-        ),
+        navigator=_obstacle_navigator(GfNavigator, "gf"),
+        goal_attraction=_potential_goal("gf"),
         parameters="gf",
         # The gyroscopic gain and shell, the repulsion inside its safety shell
         # (ρ₀ < r_d), and the attraction's stiffness (v_max stays 1 m/s). k_g
@@ -159,81 +226,25 @@ METHODS: dict[str, Method] = {
             Gain("gf.attraction.k_att", 0.5, 4.0),
         ),
     ),
+    # MFI without the escape rule: the default MFI before non-convex worlds
+    # (the same flights to the bit), the field `analyze` linearises.
+    "mfi-memoryless": Method(
+        name="mfi-memoryless",
+        label="MFI (memoryless)",
+        colour="tab:gray",
+        navigator=mfi_navigator,
+        goal_attraction=_mfi_goal("navigator"),
+        parameters="navigator",
+        gains=_mfi_gains("navigator"),
+        in_defaults=False,
+    ),
 }
-
-
-def mfi_navigator(s: Scenario, vehicle: Vehicle) -> "MfiNavigator":
-    """MFI's memoryless navigator, eq 11–15 at the scenario's `navigator` gains."""
-    return MfiNavigator(
-        gains(s, "navigator", vehicle), _goal(s), vehicle.collision_radius
-    )
-
-
-def escape_off(s: Scenario) -> str | None:
-    """Why MFI flies `s` without the escape rule's memory, or None where it
-    flies with it. The memory remembers static surfaces (hit points, the
-    followed surface, a door's jambs): among moving obstacles there is no
-    static scene to tell from the readings, nor in a fleet whose cameras
-    render the other vehicles into the scene's depth images. With depth
-    cameras the rule follows surfaces beside and below the vehicle that no
-    camera may see (a held-out field's contact, a room's floor): only where
-    the scenario asks (`escape.cameras`). Elsewhere MFI flies memoryless,
-    as `mfi-memoryless` does (docs/nonconvex.md)."""
-    if obstacles_move(s):
-        return "obstacles move"
-    if not isinstance(s.sensor, SphereSensor):
-        if s.other_vehicles:
-            return "a fleet with cameras"
-        if not s.escape.cameras:
-            return "cameras (escape.cameras: false)"
-    return None
-
-
-def _escape_navigator(
-    s: Scenario, vehicle: Vehicle
-) -> "EscapeNavigator | MfiNavigator":
-    """The default MFI's navigator: MFI with the escape rule and its memory
-    (`EscapeNavigator`), memoryless where `escape_off` says. In a fleet its
-    memory reads the static scene's readings (`OtherVehicleReadings`'
-    "scene") and its field every reading with the relative velocity where
-    that is on."""
-    if escape_off(s):
-        return mfi_navigator(s, vehicle)
-    fleet = bool(s.other_vehicles)
-    return EscapeNavigator(
-        gains(s, "navigator", vehicle),
-        _goal(s),
-        vehicle.collision_radius,
-        vehicle.mass,
-        gains(s, "escape", vehicle),
-        None if s.ground is None else s.ground.height,
-        scene=fleet,
-        relative=s.relative_velocity if fleet and s.relative_velocity.enabled else None,
-    )
-
-
-# MFI without the escape rule: the default MFI before non-convex worlds
-# (the same flights to the bit), the field `analyze` linearises.
-METHODS["mfi-memoryless"] = replace(
-    METHODS["mfi"],
-    name="mfi-memoryless",
-    label="MFI (memoryless)",
-    colour="tab:gray",
-    in_defaults=False,
-)
-# The default MFI: the escape rule and its memory in non-convex worlds
-# (docs/nonconvex.md); in convex worlds its corner brake is all that acts.
-METHODS["mfi"] = replace(
-    METHODS["mfi"], navigator=lambda s, vehicle: _escape_navigator(s, vehicle)
-)
-# Its name while it was a separate method, kept for scripts and records.
-METHODS["mfi-nc"] = replace(
-    METHODS["mfi"],
-    name="mfi-nc",
-    label="MFI (non-convex)",
-    colour="darkgoldenrod",
-    in_defaults=False,
-)
+# Other names of a method, kept for scripts and records: "mfi-nc", MFI with
+# the escape rule while it was a method of its own. A flight asked for by
+# an alias is the method's, under the name it was asked for.
+ALIASES: dict[str, str] = {"mfi-nc": "mfi"}
+# Every name a method may be asked for by, as the CLI lists them.
+METHOD_NAMES: tuple[str, ...] = (*METHODS, *ALIASES)
 # The methods flown where none is named.
 DEFAULT_METHODS = tuple(name for name, m in METHODS.items() if m.in_defaults)
 
@@ -244,8 +255,9 @@ USER_COLOURS = ("tab:purple", "tab:orange", "tab:brown", "tab:pink", "tab:olive"
 def appearance(name: str) -> tuple[str, str]:
     """(label, colour) of a method named in a result, without importing a
     user's module: a user method's label is the NAME of its MODULE:NAME."""
-    if name in METHODS:
-        return METHODS[name].label, METHODS[name].colour
+    if name in METHOD_NAMES:
+        method = METHODS[ALIASES.get(name, name)]
+        return method.label, method.colour
     return name.rsplit(":", 1)[-1], USER_COLOURS[sum(name.encode()) % len(USER_COLOURS)]
 
 
@@ -262,7 +274,7 @@ def user_method(field: Callable, name: str) -> Method:
         name=name,
         label=label,
         colour=colour,
-        navigator=lambda s, _: UserFieldNavigator(field, name, _goal(s), s.field_gains),
+        navigator=lambda c, _: UserFieldNavigator(field, name, _goal(c), c.field_gains),
         goal_attraction=lambda *_: PassThroughGoal(),
         parameters="field_gains",
         gains=tuple(
@@ -306,7 +318,9 @@ def import_field(spec: str) -> Callable:
     and PYTHONPATH after it. Raises MethodError naming the spec."""
     module_name, _, attribute = spec.partition(":")
     if not module_name or not attribute:
-        raise MethodError(f"{spec!r}: must be one of {sorted(METHODS)} or MODULE:NAME")
+        raise MethodError(
+            f"{spec!r}: must be one of {sorted(METHOD_NAMES)} or MODULE:NAME"
+        )
     if os.getcwd() not in sys.path:
         sys.path.insert(0, os.getcwd())
     try:
@@ -327,13 +341,15 @@ def import_field(spec: str) -> Callable:
 
 
 def resolve_method(method: "str | Callable | Method") -> Method:
-    """The registry entry of `method`: a name of METHODS, a "MODULE:NAME"
+    """The registry entry of `method`: a name of METHODS (or ALIASES), a "MODULE:NAME"
     spec of a user's field, a callable field, or a Method itself."""
     if isinstance(method, Method):
         return method
     if isinstance(method, str):
         if method in METHODS:
             return METHODS[method]
+        if method in ALIASES:
+            return replace(METHODS[ALIASES[method]], name=method)
         return user_method(import_field(method), method)
     if callable(method):
         module = getattr(method, "__module__", None) or "<unknown>"

@@ -48,7 +48,7 @@ def outcome(metrics: dict) -> str:
     """A flight's result: "collision" if its clearance went below zero at any
     logged step (reached or not), else "success" if it ended within the goal
     tolerance, else "trapped" if the escape rule ended it, out of options
-    (metrics "trapped", only a flight of "mfi-nc" can), else "timeout"
+    (metrics "trapped", only a flight of "mfi" can), else "timeout"
     (stuck, or too slow for the duration). Among several vehicles:
     "collision" if any collided or two touched (min_separation ≤ 0), else
     "success" if every one reached its goal, else "trapped" if one was

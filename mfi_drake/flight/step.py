@@ -21,7 +21,7 @@ has been crossed since the last call (`GoalAttractionSelector.next_mode`,
 the guard functions the witness functions evaluate). A guard crossed and
 crossed back between two calls goes unseen, as in any sampled loop.
 
-The escape rule's memory (mfi-nc, `systems.escape.EscapeNavigator`) is
+The escape rule's memory (mfi, `systems.escape.EscapeNavigator`) is
 the object's state too, kept in the navigator's context: set from the
 first call's state as the diagram's initialization sets it, then updated
 at every call, before the outputs, as the diagram's per-step event updates
@@ -34,6 +34,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from mfi_drake.config.navigation import navigation_config
 from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.scenario import Scenario, SphereSensor, check_scenario
 from mfi_drake.config.vehicles import Vehicle, as_vehicle
@@ -56,7 +57,7 @@ class StepOutput:
     propeller_force: np.ndarray  # u (4), QuadrotorPlant's input: rotor commands
     mode: int  # eq 21's mode: fields.MODE_PD (0) or fields.MODE_CRUISE (1)
     obstacle: np.ndarray  # the readings used (12), the sensor's "obstacle" signal
-    # The escape rule's [phase, subgoal (3)] (mfi-nc; None without the rule):
+    # The escape rule's [phase, subgoal (3)] (mfi; None without the rule):
     # phase maths.escape.TOWARD, FOLLOW, TRAPPED (the goal cannot be
     # reached: the diagram ends its flight there) or PASS.
     escape: np.ndarray | None = None
@@ -128,9 +129,10 @@ class NavigationStep:
         self.goal = np.array(scenario.goal, float)
         self.sensor_radius = float(scenario.sensor.radius)
         vehicle = as_vehicle(scenario.vehicle)
+        config = navigation_config(scenario)
         self._chain = [
-            self.method.navigator(scenario, vehicle),
-            self.method.goal_attraction(scenario, vehicle),
+            self.method.navigator(config, vehicle),
+            self.method.goal_attraction(config, vehicle),
             AttitudePD(vehicle, scenario.navigator),
             RotorMixer(vehicle),
         ]
@@ -180,7 +182,7 @@ class NavigationStep:
         within the sensor radius are read, as the sphere sensor reads them
         (`layout.point_readings`). First switches eq 21's mode if a guard
         has been crossed since the last call, and updates the escape rule's
-        memory (mfi-nc). `t` [s]: the time a user's field's errors name and
+        memory (mfi). `t` [s]: the time a user's field's errors name and
         the escape rule's memory measures progress over (default 0: the
         rule then never sees time pass, and never declares a trap); it may
         not go back between two calls of a method with the rule (ValueError;

@@ -13,7 +13,7 @@ import types
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
-from mfi_drake.flight.methods import METHODS, MethodError, import_field
+from mfi_drake.flight.methods import METHOD_NAMES, MethodError, import_field
 from mfi_drake.maths.compiled import sources_digest
 
 # What the local workers' fork server imports once (`dask_client`): the
@@ -216,7 +216,7 @@ def dask_client(
 def _user_modules(methods: Sequence[str]) -> Iterator[str]:
     """The top-level modules of the MODULE:NAME methods."""
     for method in methods:
-        if method not in METHODS:
+        if method not in METHOD_NAMES:
             yield method.partition(":")[0].partition(".")[0]
 
 
@@ -332,7 +332,7 @@ def check_cluster(client, methods: Sequence[str] = ()) -> None:
     for worker, theirs in client.run(probe, on_error="return").items():
         if not isinstance(theirs, Exception):
             _same_package(mine, f"worker {worker}", theirs)
-    if user := [m for m in methods if m not in METHODS]:
+    if user := [m for m in methods if m not in METHOD_NAMES]:
         checks = client.run(_import_problem, user, on_error="return")
         for worker, problem in checks.items():
             if isinstance(problem, str):

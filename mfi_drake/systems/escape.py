@@ -1,5 +1,5 @@
 """`EscapeNavigator`: MFI with the escape rule of `maths.escape` and the
-memory it builds in flight, for method "mfi-nc" (docs/nonconvex.md).
+memory it builds in flight, for method "mfi" (docs/nonconvex.md).
 
 The memory is the system's one discrete state group (`escape.MEMORY_SIZE`
 floats), set at initialization and updated by a per-step discrete
@@ -9,7 +9,7 @@ below) the flight is MFI's step for step. Once the memory says TRAPPED
 the event ends the flight (`EventStatus.ReachedTermination`, message
 `TRAPPED_MESSAGE`): the goal cannot be reached.
 
-Method "mfi-nc" pairs it with MFI's `GoalAttractionSelector` aimed at the
+Method "mfi" pairs it with MFI's `GoalAttractionSelector` aimed at the
 goal (eq 16–21 unchanged, the terminal PD included). While the memory
 follows a surface, MFI's fields are aimed at the subgoal ĝ instead: F_o is
 eq 11–15 with r_g = ĝ − p, and "obstacle_force" adds the redirection

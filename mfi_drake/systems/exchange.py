@@ -94,7 +94,7 @@ class OtherVehicleReadings(LeafSystem):
     the reading's normal (`maths.motion.along_normal`), zero for the scene's;
     "vehicle_readings": per output reading, 1 where it is another vehicle
     (the relative navigator's rule of the road), else 0; "scene": the
-    input "obstacle" as it is, the static scene alone (what mfi-nc's memory
+    input "obstacle" as it is, the static scene alone (what MFI's memory
     reads in a fleet, `systems.escape`).
     """
 
