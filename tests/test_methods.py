@@ -29,7 +29,7 @@ from mfi_drake.flight.methods import (
 )
 from mfi_drake.flight.simulator import fly
 from mfi_drake.maths.baselines import apf_obstacle_field, attraction_field
-from mfi_drake.systems.navigation import UserFieldError
+from mfi_drake.systems.user_field import UserFieldError
 
 from .conftest import SCENARIOS
 

@@ -19,8 +19,8 @@ from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import fleet
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, STATE_SIZE
 from mfi_drake.systems.fleet import UserForces
-from mfi_drake.systems.navigation import UserFieldError, UserFieldNavigator, call_field
 from mfi_drake.systems.relative import VELOCITY_SIGNAL_SIZE
+from mfi_drake.systems.user_field import UserFieldError, UserFieldNavigator, call_field
 from mfi_drake.world.fleets import with_vehicles
 from mfi_drake.world.validation import load_scenario
 

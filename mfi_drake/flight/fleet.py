@@ -63,13 +63,13 @@ from mfi_drake.systems.navigation import (
     GoalAttractionSelector,
     ObstacleNavigator,
     PotentialGoalAttraction,
-    UserFieldNavigator,
 )
 from mfi_drake.systems.relative import (
     VELOCITY_SIGNAL_SIZE,
     ObstacleVelocityEstimator,
 )
 from mfi_drake.systems.sensors import FleetSceneSensor
+from mfi_drake.systems.user_field import UserFieldNavigator
 
 
 def flies_compiled(scenario: Scenario) -> bool:

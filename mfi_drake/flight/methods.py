@@ -35,10 +35,9 @@ from mfi_drake.systems.navigation import (
     GfNavigator,
     GoalAttractionSelector,
     MfiNavigator,
-    PassThroughGoal,
     PotentialGoalAttraction,
-    UserFieldNavigator,
 )
+from mfi_drake.systems.user_field import PassThroughGoal, UserFieldNavigator
 
 
 class MethodError(ValueError):

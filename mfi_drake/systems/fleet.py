@@ -39,13 +39,9 @@ from mfi_drake.maths.layout import (
 from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
 from mfi_drake.systems.escape import TRAPPED_MESSAGE
 from mfi_drake.systems.last_result import LastResult
-from mfi_drake.systems.navigation import (
-    UserFieldError,
-    UserFieldNavigator,
-    call_field,
-    mode_witnesses,
-)
+from mfi_drake.systems.navigation import mode_witnesses
 from mfi_drake.systems.relative import VELOCITY_SIGNAL_SIZE
+from mfi_drake.systems.user_field import UserFieldError, UserFieldNavigator, call_field
 
 
 class FleetChain(LeafSystem):

@@ -41,16 +41,6 @@ from mfi_drake.maths.layout import (
 )
 from mfi_drake.systems.last_result import LastResult
 
-# Re-exported only while flight/methods.py, flight/fleet.py and
-# systems/fleet.py (edited by concurrent work) still import them from here;
-# new code imports them from systems.user_field.
-from mfi_drake.systems.user_field import (  # noqa: F401
-    PassThroughGoal,
-    UserFieldError,
-    UserFieldNavigator,
-    call_field,
-)
-
 
 def declare_obstacle_force_ports(system, terms, tickets: set) -> None:
     """Declares a navigator's outputs "obstacle_force" (F_o, 3) and
