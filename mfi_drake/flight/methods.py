@@ -111,7 +111,10 @@ METHODS: dict[str, Method] = {
         label="MFI (paper)",
         colour="tab:cyan",
         navigator=lambda s, vehicle: MfiNavigator(
-            gains(s, "mfi_paper", vehicle), _goal(s), vehicle.collision_radius
+            gains(s, "mfi_paper", vehicle),
+            _goal(s),
+            vehicle.collision_radius,
+            s.sensor.readings,
         ),
         goal_attraction=lambda s, vehicle: GoalAttractionSelector(
             gains(s, "mfi_paper", vehicle), _goal(s), mass=vehicle.mass
@@ -124,7 +127,10 @@ METHODS: dict[str, Method] = {
         label="APF",
         colour="tab:red",
         navigator=lambda s, vehicle: ApfNavigator(
-            gains(s, "apf", vehicle), _goal(s), vehicle.collision_radius
+            gains(s, "apf", vehicle),
+            _goal(s),
+            vehicle.collision_radius,
+            s.sensor.readings,
         ),
         goal_attraction=lambda s, vehicle: PotentialGoalAttraction(
             gains(s, "apf", vehicle).attraction, _goal(s)
@@ -142,7 +148,10 @@ METHODS: dict[str, Method] = {
         label="GF",
         colour="tab:green",
         navigator=lambda s, vehicle: GfNavigator(
-            gains(s, "gf", vehicle), _goal(s), vehicle.collision_radius
+            gains(s, "gf", vehicle),
+            _goal(s),
+            vehicle.collision_radius,
+            s.sensor.readings,
         ),
         goal_attraction=lambda s, vehicle: PotentialGoalAttraction(
             gains(s, "gf", vehicle).attraction, _goal(s)
@@ -165,7 +174,10 @@ METHODS: dict[str, Method] = {
 def mfi_navigator(s: Scenario, vehicle: Vehicle) -> "MfiNavigator":
     """MFI's memoryless navigator, eq 11–15 at the scenario's `navigator` gains."""
     return MfiNavigator(
-        gains(s, "navigator", vehicle), _goal(s), vehicle.collision_radius
+        gains(s, "navigator", vehicle),
+        _goal(s),
+        vehicle.collision_radius,
+        s.sensor.readings,
     )
 
 
@@ -209,6 +221,7 @@ def _escape_navigator(
         None if s.ground is None else s.ground.height,
         scene=fleet,
         relative=s.relative_velocity if fleet and s.relative_velocity.enabled else None,
+        readings=s.sensor.readings,
     )
 
 
@@ -262,7 +275,9 @@ def user_method(field: Callable, name: str) -> Method:
         name=name,
         label=label,
         colour=colour,
-        navigator=lambda s, _: UserFieldNavigator(field, name, _goal(s), s.field_gains),
+        navigator=lambda s, _: UserFieldNavigator(
+            field, name, _goal(s), s.field_gains, s.sensor.readings
+        ),
         goal_attraction=lambda *_: PassThroughGoal(),
         parameters="field_gains",
         gains=tuple(
