@@ -68,6 +68,7 @@ def test_every_port_and_the_escape_memory_follow_the_count():
     fleet = OtherVehicleReadings(2, 0.225, 3.0, readings=5)
     for system in (depth, point_map, fleet):
         assert system.GetOutputPort("obstacle").size() == 20
+    assert fleet.GetOutputPort("scene").size() == 20
     assert fleet.GetOutputPort("obstacle_velocity").size() == 15
     assert fleet.GetOutputPort("vehicle_readings").size() == 5
 

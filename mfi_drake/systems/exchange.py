@@ -106,11 +106,11 @@ class OtherVehicleReadings(LeafSystem):
         readings: int = OBSTACLE_COUNT,
     ):
         super().__init__()
-        size = signal_size(readings)
+        signal = signal_size(readings)
         self._radius = float(radius)
         self._reach = float(sensor_radius)
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
-        self._obstacle = self.DeclareVectorInputPort("obstacle", size)
+        self._obstacle = self.DeclareVectorInputPort("obstacle", signal)
         self._message = self.DeclareVectorInputPort(
             "other_vehicles", message_size(count)
         )
@@ -118,7 +118,7 @@ class OtherVehicleReadings(LeafSystem):
         tickets.add(self.time_ticket())
         self._last = LastResult()
         outputs = (
-            ("obstacle", size),
+            ("obstacle", signal),
             ("obstacle_velocity", 3 * readings),
             ("vehicle_readings", readings),
         )
@@ -131,7 +131,7 @@ class OtherVehicleReadings(LeafSystem):
             )
         self.DeclareVectorOutputPort(
             "scene",
-            size,
+            signal,
             lambda context, out: out.SetFromVector(self._obstacle.Eval(context)),
             prerequisites_of_calc={self._obstacle.ticket()},
         )
