@@ -3,6 +3,7 @@ Perille et al., SSRR 2020) as scenarios, their feasibility, and flights.
 
     python benchmarks/barn.py WORLDS_DIR --worlds 1 3 5 [--methods mfi,gf]
                               [--out out/barn] [--write-scenarios]
+                              [--readings N --engine systems]
 
 WORLDS_DIR holds the benchmark's world_N.world files (jackal_helper/worlds/
 BARN in the challenge's repository; not part of this project). For each
@@ -28,7 +29,9 @@ index N of --worlds:
   cell centres are tested, so r is good to about a cell's half-diagonal
   (0.014 m) either way.
 - flights: each method of --methods, `simulate` on the compiled engine
-  (--engine; the engines fly the same flights, benchmarks/engines.py).
+  (--engine; the engines fly the same flights, benchmarks/engines.py),
+  the sphere sensor reporting --readings obstacles (default 3; another
+  count flies on the systems engine only).
 
 Prints one line a world and method and the table of success, collision and
 timeout per method (feasible worlds only counted as reachable); writes
@@ -160,6 +163,7 @@ def main() -> None:
     parser.add_argument("--out", default="out/barn")
     parser.add_argument("--engine", default="compiled", choices=ENGINES)
     parser.add_argument("--write-scenarios", action="store_true")
+    parser.add_argument("--readings", type=int, default=sc.SphereSensor().readings)
     args = parser.parse_args()
     methods = args.methods.split(",")
     radius = as_vehicle("drake_default").collision_radius
@@ -169,6 +173,7 @@ def main() -> None:
         path = os.path.join(args.worlds_dir, f"world_{index}.world")
         scenario = barn_scenario(path, f"barn_{index}")
         scenario.engine = args.engine
+        scenario.sensor.readings = args.readings
         widest = widest_passage(cylinders(path))
         if args.write_scenarios:
             write_scenario(scenario, os.path.join(args.out, f"world_{index}.yaml"))

@@ -40,6 +40,7 @@ from mfi_drake.config.vehicle_model import VehicleModel, vehicle_field_problems
 from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.config.worlds import WorldPose, world_problems
 from mfi_drake.maths.escape import EscapeParams
+from mfi_drake.maths.layout import OBSTACLE_COUNT
 from mfi_drake.maths.point_maps import MAP_VOXEL
 
 FLEET_INTEGRATIONS = ("separate", "one")
@@ -124,6 +125,7 @@ class SphereSensor:
     """Sees every obstacle point within `radius` of the vehicle centre."""
 
     radius: float = 3.0  # m, the paper's r_s
+    readings: int = OBSTACLE_COUNT  # obstacles reported, nearest first (≥ 1)
 
 
 @dataclass
@@ -164,6 +166,7 @@ class DepthCamera(CameraImage):
     # None: fixed to the body, as in the paper; a `Gimbal`: looking where the
     # vehicle goes (docs/depth_camera.md, "Gimbal").
     gimbal: Gimbal | None = None
+    readings: int = OBSTACLE_COUNT  # obstacles reported, nearest first (≥ 1)
 
 
 def looking_forward() -> Transform:
@@ -192,6 +195,7 @@ class DepthCameraRig:
     cameras: list[RigCamera] = field(default_factory=lambda: [RigCamera()])
     rate_hz: float = 30.0  # frames per second, every camera
     memory_s: float = MEMORY_S  # s, T: how long a seen point is remembered
+    readings: int = OBSTACLE_COUNT  # obstacles reported, nearest first (≥ 1)
 
 
 Sensor = SphereSensor | DepthCamera | DepthCameraRig
@@ -442,6 +446,9 @@ def check_navigation_fields(scenario: object, where: str) -> None:
         _check_cameras(where, scenario.sensor)
     else:
         fail(where, "sensor", scenario.sensor, "unknown sensor")
+    readings = scenario.sensor.readings
+    if isinstance(readings, bool) or not isinstance(readings, int) or readings < 1:
+        fail(where, "sensor.readings", readings, "must be an integer >= 1")
     for key in ("navigator", "mfi_paper"):
         for name, value, reason in validate_params(getattr(scenario, key)):
             fail(where, f"{key}.{name}", value, reason)

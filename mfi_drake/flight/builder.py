@@ -51,6 +51,7 @@ from mfi_drake.flight.chain import (
     add_sensor,
     log_slices,
     own_geometry,
+    readings_of,
 )
 from mfi_drake.flight.methods import Method, MethodError, resolve_method
 from mfi_drake.flight.scene import goal_obstacle, scene_moves
@@ -106,14 +107,14 @@ class NavigationHandles(Controller):
         self.place(root_context, _point("position", position))
 
     def log_slices(self) -> dict[str, slice]:
-        return log_slices()
+        return log_slices(readings_of(self.sensor))
 
     def read_log(self, root_context: Context) -> tuple[np.ndarray, dict]:
         """(times, {signal name: (N, size) array}) logged so far."""
         log = self.logger.FindLog(root_context)
         data = log.data().T
         return log.sample_times().copy(), {
-            name: data[:, s] for name, s in log_slices().items()
+            name: data[:, s] for name, s in self.log_slices().items()
         }
 
 

@@ -31,7 +31,15 @@ from mfi_drake.config.navigation import NavigationConfig, check_navigation
 from mfi_drake.config.scenario import Cameras, Sensor, SphereSensor
 from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.methods import Method, resolve_method
-from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE, slices
+from mfi_drake.maths.layout import (
+    OBSTACLE_COUNT,
+    OBSTACLE_SIGNAL_SIZE,
+    READING_SIZE,
+    ROTORS,
+    STATE_SIZE,
+    signal_size,
+    slices,
+)
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.camera import add_depth_cameras
 from mfi_drake.systems.control import AttitudePD, RotorMixer
@@ -48,7 +56,8 @@ from mfi_drake.systems.sensors import SphereSensor as SphereSensorSystem
 from mfi_drake.systems.sensors import VehicleGeometry
 
 # What the log holds, in order: (name, size, source system, its output port);
-# the source "state" is the vehicle's state port itself.
+# the source "state" is the vehicle's state port itself. The "obstacle" size
+# is the default count's (`log_layout` for a sensor's own).
 LOG_LAYOUT: list[tuple[str, int, str, str]] = [
     ("state", STATE_SIZE, "state", "state"),
     ("obstacle", OBSTACLE_SIGNAL_SIZE, "sensor", "obstacle"),
@@ -62,9 +71,23 @@ LOG_LAYOUT: list[tuple[str, int, str, str]] = [
 ]
 
 
-def log_slices() -> dict[str, slice]:
-    """Each logged signal's rows of the logger's data."""
-    return slices((name, size) for name, size, _, _ in LOG_LAYOUT)
+def log_layout(readings: int = OBSTACLE_COUNT) -> list[tuple[str, int, str, str]]:
+    """LOG_LAYOUT for a sensor of `readings` readings."""
+    return [
+        (name, signal_size(readings) if name == "obstacle" else size, system, port)
+        for name, size, system, port in LOG_LAYOUT
+    ]
+
+
+def readings_of(sensor) -> int:
+    """How many readings the system `sensor`'s "obstacle" output holds."""
+    return sensor.GetOutputPort("obstacle").size() // READING_SIZE
+
+
+def log_slices(readings: int = OBSTACLE_COUNT) -> dict[str, slice]:
+    """Each logged signal's rows of the logger's data (`readings`: the
+    sensor's count)."""
+    return slices((name, size) for name, size, _, _ in log_layout(readings))
 
 
 @dataclass
@@ -150,12 +173,17 @@ def add_sensor(
         raise TypeError(f"sensor = {sensor!r}: not a SphereSensor or camera rig")
     name = "scene_sensor" if other_vehicles else "sensor"
     if mapped:
-        system = builder.AddNamedSystem(name, PointMapSensor(map_points, sensor.radius))
+        system = builder.AddNamedSystem(
+            name, PointMapSensor(map_points, sensor.radius, sensor.readings)
+        )
     else:
         system = builder.AddNamedSystem(
             name,
             SphereSensorSystem(
-                sensor.radius, moving=moving, ignore=own_geometry(scene_graph, ignore)
+                sensor.radius,
+                moving=moving,
+                ignore=own_geometry(scene_graph, ignore),
+                readings=sensor.readings,
             ),
         )
         builder.Connect(
@@ -215,7 +243,9 @@ def _fleet_readings(
     exported input "other_vehicles" (`systems.exchange`)."""
     readings = builder.AddNamedSystem(
         "sensor",
-        OtherVehicleReadings(other_vehicles, vehicle.collision_radius, sensor.radius),
+        OtherVehicleReadings(
+            other_vehicles, vehicle.collision_radius, sensor.radius, sensor.readings
+        ),
     )
     builder.Connect(
         scene_sensor.GetOutputPort("obstacle"), readings.GetInputPort("obstacle")
@@ -346,10 +376,12 @@ def add_logger(
     sensor,
     controller: Controller,
 ) -> VectorLogSink:
-    """Adds the Multiplexer "log_mux" of every signal of LOG_LAYOUT and the
-    VectorLogSink "logger" that records it at every integrator step."""
+    """Adds the Multiplexer "log_mux" of every signal of LOG_LAYOUT (the
+    "obstacle" as long as the sensor's) and the VectorLogSink "logger" that
+    records it at every integrator step."""
+    layout = log_layout(readings_of(sensor))
     mux = builder.AddNamedSystem(
-        "log_mux", Multiplexer([size for _, size, _, _ in LOG_LAYOUT])
+        "log_mux", Multiplexer([size for _, size, _, _ in layout])
     )
     systems = {
         "sensor": sensor,
@@ -358,7 +390,7 @@ def add_logger(
         "attitude_pd": controller.attitude_pd,
         "mixer": controller.mixer,
     }
-    for i, (_, _, system_name, port_name) in enumerate(LOG_LAYOUT):
+    for i, (_, _, system_name, port_name) in enumerate(layout):
         port = (
             state_port
             if system_name == "state"
@@ -389,12 +421,20 @@ def navigator_of(config: NavigationConfig, method: Method, vehicle: Vehicle) -> 
             keep_right = estimate.keep_right
         if knows_velocities(config):
             return RelativeNavigator(
-                navigator, estimate.own_pace, PACE_BLEND_SPEED, keep_right
+                navigator,
+                estimate.own_pace,
+                PACE_BLEND_SPEED,
+                keep_right,
+                sensor.readings,
             )
         # A camera's readings change once a frame: sampled at its frame rate.
         rate = sensor.rate_hz if isinstance(sensor, Cameras) else estimate.rate_hz
         navigator = relative_navigator(
-            lambda: method.navigator(config, vehicle), estimate, rate, keep_right
+            lambda: method.navigator(config, vehicle),
+            estimate,
+            rate,
+            keep_right,
+            sensor.readings,
         )
     return navigator
 

@@ -70,7 +70,7 @@ class FlightDiagram:
     handles: NavigationHandles
 
     def log_slices(self) -> dict[str, slice]:
-        return log_slices()
+        return log_slices(self.scenario.sensor.readings)
 
 
 def make_plant(vehicle: Vehicle) -> QuadrotorPlant:

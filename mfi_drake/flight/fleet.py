@@ -48,7 +48,12 @@ from mfi_drake.flight.builder import add_rotor_path
 from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths import baselines, compiled, fields, fleet
-from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, ROTORS, STATE_SIZE
+from mfi_drake.maths.layout import (
+    OBSTACLE_COUNT,
+    OBSTACLE_SIGNAL_SIZE,
+    ROTORS,
+    STATE_SIZE,
+)
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.faults import (
@@ -120,6 +125,8 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         )
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
+    if scenario.sensor.readings != OBSTACLE_COUNT:
+        return f"sensor.readings: the compiled chain flies {OBSTACLE_COUNT} readings"
     if scenario.faults != Faults() and scenario.other_vehicles:
         return "faults: the compiled chain flies them for a lone vehicle only"
     if scenario.map_points:

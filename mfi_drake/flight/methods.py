@@ -102,7 +102,10 @@ def gains(config: NavigationConfig, key: str, vehicle: Vehicle):
 def mfi_navigator(config: NavigationConfig, vehicle: Vehicle) -> "MfiNavigator":
     """MFI's memoryless navigator, eq 11–15 at the config's `navigator` gains."""
     return MfiNavigator(
-        gains(config, "navigator", vehicle), _goal(config), vehicle.collision_radius
+        gains(config, "navigator", vehicle),
+        _goal(config),
+        vehicle.collision_radius,
+        config.sensor.readings,
     )
 
 
@@ -147,6 +150,7 @@ def escape_navigator(
         None if config.ground is None else config.ground.height,
         scene=fleet,
         relative=relative if fleet and relative.enabled else None,
+        readings=config.sensor.readings,
     )
 
 
@@ -161,7 +165,7 @@ def _obstacle_navigator(kind: Callable, key: str) -> Callable:
     """The navigator `kind` (MfiNavigator, ApfNavigator, GfNavigator) at the
     config's `key` gains."""
     return lambda c, vehicle: kind(
-        gains(c, key, vehicle), _goal(c), vehicle.collision_radius
+        gains(c, key, vehicle), _goal(c), vehicle.collision_radius, c.sensor.readings
     )
 
 
@@ -273,7 +277,9 @@ def user_method(field: Callable, name: str) -> Method:
         name=name,
         label=label,
         colour=colour,
-        navigator=lambda c, _: UserFieldNavigator(field, name, _goal(c), c.field_gains),
+        navigator=lambda c, _: UserFieldNavigator(
+            field, name, _goal(c), c.field_gains, c.sensor.readings
+        ),
         goal_attraction=lambda *_: PassThroughGoal(),
         parameters="field_gains",
         gains=tuple(

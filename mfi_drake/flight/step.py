@@ -56,7 +56,7 @@ class StepOutput:
     attitude_setpoint: np.ndarray  # [T [N], roll_d, pitch_d, yaw_d [rad]] (4)
     propeller_force: np.ndarray  # u (4), QuadrotorPlant's input: rotor commands
     mode: int  # eq 21's mode: fields.MODE_PD (0) or fields.MODE_CRUISE (1)
-    obstacle: np.ndarray  # the readings used (12), the sensor's "obstacle" signal
+    obstacle: np.ndarray  # the readings used (4 a reading), the "obstacle" signal
     # The escape rule's [phase, subgoal (3)] (mfi; None without the rule):
     # phase maths.escape.TOWARD, FOLLOW, TRAPPED (the goal cannot be
     # reached: the diagram ends its flight there) or PASS.
@@ -80,7 +80,8 @@ class NavigationStep:
     `NavigatorParams`, or a dict of its fields),
     which hold MFI's gains and the attitude PD's of every method;
     `sensor_radius`: r_s [m], the sphere sensor's (default
-    `SphereSensor().radius`). For every other parameter (the baselines'
+    `SphereSensor().radius`); `readings`: how many obstacles it reports
+    (default `SphereSensor().readings`). For every other parameter (the baselines'
     gains, a user field's `field_gains`), `from_scenario`. Bad arguments
     raise ValueError (`MethodError`, `ScenarioError`) naming them.
     """
@@ -92,6 +93,7 @@ class NavigationStep:
         vehicle: "str | Vehicle" = "drake_default",
         navigator: "NavigatorParams | dict | None" = None,
         sensor_radius: float | None = None,
+        readings: int | None = None,
     ):
         scenario = Scenario(
             name=WHERE,
@@ -100,7 +102,9 @@ class NavigationStep:
             navigator=_navigator(navigator),
         )
         if sensor_radius is not None:
-            scenario.sensor = SphereSensor(radius=sensor_radius)
+            scenario.sensor.radius = sensor_radius
+        if readings is not None:
+            scenario.sensor.readings = readings
         self._build(scenario, method)
 
     @classmethod
@@ -108,7 +112,8 @@ class NavigationStep:
         cls, scenario: Scenario, method: "str | Callable | Method" = "mfi"
     ) -> "NavigationStep":
         """The chain that `simulate(scenario, method)` flies, for the
-        scenario's goal, vehicle, parameters and sphere sensor's radius. In
+        scenario's goal, vehicle, parameters and sphere sensor's radius and
+        readings. In
         a dynamic scene the diagram's navigator also reads the obstacles'
         velocities (`systems.relative`), and a `faults:` block sits around
         the chain: the step has neither, it reads points and the state
@@ -128,6 +133,7 @@ class NavigationStep:
         self.scenario = scenario
         self.goal = np.array(scenario.goal, float)
         self.sensor_radius = float(scenario.sensor.radius)
+        self.readings = scenario.sensor.readings
         vehicle = as_vehicle(scenario.vehicle)
         config = navigation_config(scenario)
         self._chain = [
@@ -178,7 +184,7 @@ class NavigationStep:
     def step(self, state, points, t: float | None = None) -> StepOutput:
         """The chain's outputs at `state` (QuadrotorPlant's 12-vector, see
         `maths.layout`) with the obstacles whose closest points are `points`
-        (k × 3, world frame [m], any k ≥ 0): the OBSTACLE_COUNT nearest
+        (k × 3, world frame [m], any k ≥ 0): the `readings` nearest
         within the sensor radius are read, as the sphere sensor reads them
         (`layout.point_readings`). First switches eq 21's mode if a guard
         has been crossed since the last call, and updates the escape rule's
@@ -194,7 +200,7 @@ class NavigationStep:
         elif array.ndim != 2 or array.shape[1] != 3:
             _refuse("points", points, "must be k × 3 obstacle points [m]")
         p, _ = position_velocity(x)
-        obstacle = point_readings(p, array, self.sensor_radius)
+        obstacle = point_readings(p, array, self.sensor_radius, self.readings)
         navigator, selector, attitude, mixer = self._contexts
         navigator.SetTime(0.0 if t is None else float(t))
         if self._switches:

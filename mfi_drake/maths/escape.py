@@ -60,8 +60,9 @@ obstacles that MFI's own fields (eq 11–15, with the velocity relative to
 each: `relative_escape_terms`) turn the vehicle round, not surfaces to
 follow, corners or jambs. A lone vehicle's readings are its scene's.
 
-The memory (`MEMORY_SIZE` = 70 floats, a fixed layout below) is bounded in
-size by construction, and in age: the progress record spans at most
+The memory (`memory_size(count)` floats for a sensor of `count` readings,
+70 at the default 3; a fixed layout below, the per-reading records last)
+is bounded in size by construction, and in age: the progress record spans at most
 `stall_time`, and only the last `HITS` hit points are kept (a ring).
 
 How the memory steers MFI's fields (the subgoal, the corner brake, eq
@@ -99,18 +100,53 @@ LAST_P = slice(17, 20)  # p at the last step's update while following
 DOOR = slice(20, 23)  # the middle of the gap being passed (PASS)
 DOOR_AXIS = slice(23, 26)  # the unit direction through it
 PASSED = slice(26, 29)  # the middle of the last gap passed (inf: none)
-# The followable readings' closest points at the last step's update while
-# following (OBSTACLE_COUNT rows, inf where none): which stayed put.
-LAST_POINTS = slice(29, 29 + 3 * OBSTACLE_COUNT)
-RING_NEXT = LAST_POINTS.stop  # the ring's next slot
+RING_NEXT = 29  # the ring's next slot
 RING = RING_NEXT + 1  # HITS rows of [x, y, z, next axis]
 # Every phase's record of the seen readings for the corner brake
-# (`record_surfaces`): p, each reading's closest point (inf where none) and
-# whether the surface there is locally a plane (1) or curved (0).
+# (`record_surfaces`): p, then (below) each reading's closest point (inf
+# where none) and whether the surface there is locally a plane (1) or
+# curved (0).
 SEEN_P = slice(RING + 4 * HITS, RING + 4 * HITS + 3)
-SEEN_POINTS = slice(SEEN_P.stop, SEEN_P.stop + 3 * OBSTACLE_COUNT)
+FIXED_SIZE = SEEN_P.stop  # the records that do not grow with the count
+# Per reading of a sensor of c readings, after FIXED_SIZE: the followable
+# readings' closest points at the last step's update while following (3c,
+# inf where none: which stayed put), SEEN_POINTS (3c) and PLANES (c).
+PER_READING = 7
+
+
+def memory_size(count: int) -> int:
+    """The memory's length for a sensor of `count` readings."""
+    return FIXED_SIZE + PER_READING * count
+
+
+def _count(memory) -> int:
+    """The readings the memory `memory` records (its length says)."""
+    return (len(memory) - FIXED_SIZE) // PER_READING
+
+
+def _last_points(memory):
+    """LAST_POINTS of `memory`, (count, 3) a view."""
+    c = _count(memory)
+    return memory[FIXED_SIZE : FIXED_SIZE + 3 * c].reshape(c, 3)
+
+
+def _seen_points(memory):
+    """SEEN_POINTS of `memory`, (count, 3) a view."""
+    c = _count(memory)
+    return memory[FIXED_SIZE + 3 * c : FIXED_SIZE + 6 * c].reshape(c, 3)
+
+
+def _planes(memory):
+    """PLANES of `memory`, (count,) a view."""
+    c = _count(memory)
+    return memory[FIXED_SIZE + 6 * c : FIXED_SIZE + 7 * c]
+
+
+# The per-reading records at the default count (tests and tools index them).
+LAST_POINTS = slice(FIXED_SIZE, FIXED_SIZE + 3 * OBSTACLE_COUNT)
+SEEN_POINTS = slice(LAST_POINTS.stop, LAST_POINTS.stop + 3 * OBSTACLE_COUNT)
 PLANES = slice(SEEN_POINTS.stop, SEEN_POINTS.stop + OBSTACLE_COUNT)
-MEMORY_SIZE = PLANES.stop
+MEMORY_SIZE = memory_size(OBSTACLE_COUNT)
 
 E_Z = np.array([0.0, 0.0, 1.0])
 NO_GROUND = -math.inf  # the ground's height where there is none
@@ -157,15 +193,17 @@ class EscapeParams:
     cameras: bool = False
 
 
-def initial_memory(p: np.ndarray, goal: np.ndarray) -> np.ndarray:
-    """The memory at the start (t = 0): toward the goal, d_best = |r_g|."""
-    memory = np.zeros(MEMORY_SIZE)
+def initial_memory(
+    p: np.ndarray, goal: np.ndarray, count: int = OBSTACLE_COUNT
+) -> np.ndarray:
+    """The memory at the start (t = 0): toward the goal, d_best = |r_g|;
+    `count`: the sensor's readings."""
+    memory = np.zeros(memory_size(count))
     memory[D_BEST] = _norm(goal - p)
     memory[PASSED] = np.inf
-    memory[LAST_POINTS] = np.inf
+    memory[FIXED_SIZE : FIXED_SIZE + 6 * count] = np.inf  # last and seen points
     memory[SEEN_P] = p
-    memory[SEEN_POINTS] = np.inf
-    memory[PLANES] = 1.0
+    _planes(memory)[:] = 1.0
     memory[RING : RING + 4 * HITS] = np.tile([np.inf, np.inf, np.inf, 0.0], HITS)
     return memory
 
@@ -298,7 +336,7 @@ def _gap(memory, points: list, p, collision_radius) -> tuple:
     kept = points[_kept(points, memory[SURFACE])][1]
     if not _edge(kept, memory[SURFACE], p, memory[LAST_P]):
         return _no_gap()
-    last = memory[LAST_POINTS].reshape(OBSTACLE_COUNT, 3)
+    last = _last_points(memory)
     for _, other in points:
         w = other - kept
         gap = float(_norm(w))
@@ -440,10 +478,10 @@ def update_memory(
     candidates = _candidates(obstacle, p, axis(memory, goal), ground)
     middle, through = _gap(memory, candidates, p, collision_radius)
     memory[LAST_P] = p
-    points = np.full((OBSTACLE_COUNT, 3), np.inf)
+    last = _last_points(memory)
+    last[:] = np.inf
     for i, (_, point) in enumerate(candidates):
-        points[i] = point
-    memory[LAST_POINTS] = points.ravel()
+        last[i] = point
     if through.any():
         memory[DOOR], memory[DOOR_AXIS] = middle, through
         memory[PASSED] = middle
@@ -482,11 +520,11 @@ def record_surfaces(memory: np.ndarray, p: np.ndarray, obstacle) -> None:
     a convex shape is non-expansive); a surface seen anew, or without
     motion across it, is taken for a plane (the corner brake's safe side)
     until the motion tells."""
-    last = memory[SEEN_POINTS].reshape(OBSTACLE_COUNT, 3)
-    flags = memory[PLANES].copy()
+    last = _seen_points(memory).copy()
+    flags = _planes(memory).copy()
     moved = _norm(p - memory[SEEN_P])
-    points = np.full((OBSTACLE_COUNT, 3), np.inf)
-    planes = np.ones(OBSTACLE_COUNT)
+    points = np.full((len(last), 3), np.inf)
+    planes = np.ones(len(last))
     for i, (r_o, seen) in enumerate(readings(obstacle)):
         distance = _norm(r_o)
         if seen < 0.5 or distance < 1e-9:
@@ -505,8 +543,8 @@ def record_surfaces(memory: np.ndarray, p: np.ndarray, obstacle) -> None:
         else:
             planes[i] = flags[j]
     memory[SEEN_P] = p
-    memory[SEEN_POINTS] = points.ravel()
-    memory[PLANES] = planes
+    _seen_points(memory)[:] = points
+    _planes(memory)[:] = planes
 
 
 def plane_flags(
@@ -517,15 +555,15 @@ def plane_flags(
     by `record_surfaces`: the flag of the remembered point nearest its
     closest point (1: a plane, where none is remembered, and for the
     readings not asked about)."""
-    last = memory[SEEN_POINTS].reshape(OBSTACLE_COUNT, 3)
-    flags = np.ones(OBSTACLE_COUNT)
+    last = _seen_points(memory)
+    flags = np.ones(len(last))
     for i, (r_o, seen) in enumerate(readings(obstacle)):
         if seen < 0.5 or not _norm(r_o) - collision_radius < r_b:
             continue
         gaps = _row_norms(last - (p + r_o))
         j = int(np.argmin(gaps))
         if np.isfinite(gaps[j]):
-            flags[i] = memory[PLANES][j]
+            flags[i] = _planes(memory)[j]
     return flags
 
 

@@ -3,8 +3,10 @@
 State: Drake's QuadrotorPlant state (x, y, z, roll, pitch, yaw, ẋ, ẏ, ż,
 roll̇, pitcḣ, yaẇ), world frame, z up, R = Rz(yaw) Ry(pitch) Rx(roll).
 
-Obstacle reading: what every sensor sends the navigator. OBSTACLE_COUNT
-readings [r_o (3), seen], nearest first; r_o is the vector from the vehicle
+Obstacle reading: what every sensor sends the navigator. `readings`
+readings [r_o (3), seen] (a sensor's parameter, default OBSTACLE_COUNT;
+every port that carries them is `signal_size(readings)` long), nearest
+first; r_o is the vector from the vehicle
 centre to an obstacle's closest point (world frame, m) and seen is 1.0 when
 that obstacle is in range, else 0.0 (with r_o = 0).
 """
@@ -19,9 +21,20 @@ ANGULAR_RATE = slice(9, 12)  # roll, pitch, yaw rates [rad/s]
 
 ROTORS = 4
 
-OBSTACLE_COUNT = 3  # obstacles a reading reports, nearest first
+OBSTACLE_COUNT = 3  # default readings a sensor reports, nearest first
 READING_SIZE = 4  # [r_o (3), seen]
-OBSTACLE_SIGNAL_SIZE = READING_SIZE * OBSTACLE_COUNT
+OBSTACLE_SIGNAL_SIZE = READING_SIZE * OBSTACLE_COUNT  # at the default count
+
+
+def signal_size(count: int) -> int:
+    """The length of an "obstacle" signal of `count` readings."""
+    return READING_SIZE * count
+
+
+def reading_count(signal) -> int:
+    """How many readings the "obstacle" signal `signal` holds (its length
+    says: the compiled chain reads any count without a global)."""
+    return len(signal) // READING_SIZE
 
 
 def slices(parts) -> dict[str, slice]:
@@ -39,14 +52,14 @@ def position_velocity(x):
     return x[POSITION], x[VELOCITY]
 
 
-def nearest_first(distances) -> list[int]:
-    """The indices of the OBSTACLE_COUNT least `distances` (a sequence),
+def nearest_first(distances, count: int = OBSTACLE_COUNT) -> list[int]:
+    """The indices of the `count` least `distances` (a sequence),
     least first, a tie in the given order: how a sensor ranks the obstacles
     it reads. A selection over the few readings within r_s: in Python it
     costs what `sorted` does, where an argsort of a new array cost ~4 µs a
     reading (2.5 % of a planar-wall flight); numba compiles it as it is."""
     order = []
-    for _ in range(min(OBSTACLE_COUNT, len(distances))):
+    for _ in range(min(count, len(distances))):
         best = -1
         for i in range(len(distances)):
             if (best < 0 or distances[i] < distances[best]) and i not in order:
@@ -55,7 +68,9 @@ def nearest_first(distances) -> list[int]:
     return order
 
 
-def point_readings(p: np.ndarray, points: np.ndarray, radius: float) -> np.ndarray:
+def point_readings(
+    p: np.ndarray, points: np.ndarray, radius: float, count: int = OBSTACLE_COUNT
+) -> np.ndarray:
     """The "obstacle" signal at p of the obstacles whose closest points are
     `points` (k, 3, world frame), as the sphere sensor reads them: those
     within `radius` of p (inclusive, as SceneGraph's threshold), nearest
@@ -64,18 +79,19 @@ def point_readings(p: np.ndarray, points: np.ndarray, radius: float) -> np.ndarr
     r_o = points - p
     distances = np.sqrt(np.sum(r_o * r_o, axis=1))
     within = distances <= radius
-    return obstacle_signal(r_o[within][nearest_first(distances[within])])
+    return obstacle_signal(r_o[within][nearest_first(distances[within], count)], count)
 
 
-def obstacle_signal(points) -> np.ndarray:
-    """The "obstacle" signal from up to OBSTACLE_COUNT vectors r_o (a (k, 3)
-    array or a sequence of triples), nearest first; the readings not filled
-    are "nothing seen". Written as a list of floats and made an array
-    once: a slice assignment a reading cost the sphere sensor ~1 µs each."""
+def obstacle_signal(points, count: int = OBSTACLE_COUNT) -> np.ndarray:
+    """The "obstacle" signal of `count` readings from up to `count` vectors
+    r_o (a (k, 3) array or a sequence of triples), nearest first; the
+    readings not filled are "nothing seen". Written as a list of floats
+    and made an array once: a slice assignment a reading cost the sphere
+    sensor ~1 µs each."""
     if isinstance(points, np.ndarray):
-        points = points[:OBSTACLE_COUNT].tolist()  # floats, not numpy scalars
-    signal = [0.0] * OBSTACLE_SIGNAL_SIZE
-    for i, r_o in enumerate(points[:OBSTACLE_COUNT]):
+        points = points[:count].tolist()  # floats, not numpy scalars
+    signal = [0.0] * signal_size(count)
+    for i, r_o in enumerate(points[:count]):
         signal[READING_SIZE * i : READING_SIZE * (i + 1)] = (*r_o, 1.0)
     return np.array(signal, dtype=float)
 

@@ -27,12 +27,11 @@ import numpy as np
 
 from mfi_drake.maths.fields import superposed
 from mfi_drake.maths.layout import (
-    OBSTACLE_COUNT,
-    OBSTACLE_SIGNAL_SIZE,
     POSITION,
     READING_SIZE,
     VELOCITY,
     nearest_first,
+    reading_count,
 )
 from mfi_drake.maths.so3 import dot, entries, norm
 
@@ -156,7 +155,7 @@ def relative_field(
     p, v = x[POSITION], x[VELOCITY]
     r_g = goal - p
     seen = False
-    for i in range(OBSTACLE_COUNT):
+    for i in range(reading_count(obstacle)):
         if obstacle[READING_SIZE * i + 3] <= 0.5:
             continue
         seen = True
@@ -165,7 +164,7 @@ def relative_field(
             w = turned_right(w, turns[i])
         # `layout.obstacle_signal` of this reading alone, written out: its
         # list of points cost the compiled fleet chain ~10 %.
-        alone = np.zeros(OBSTACLE_SIGNAL_SIZE)
+        alone = np.zeros(len(obstacle))
         alone[0:3] = obstacle[READING_SIZE * i : READING_SIZE * i + 3]
         alone[3] = 1.0
         A, B = superposed(field, w, alone, r_g, collision_radius, params)
@@ -200,7 +199,7 @@ def vehicle_readings(
     itself: int = -1,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A sphere sensor's readings at p with other vehicles added: the
-    OBSTACLE_COUNT nearest of the scene's readings `scene` and of the
+    nearest of the scene's readings `scene` (as many as it holds) and of the
     spheres of radius `radius` at `centres` (m, 3) within `reach` of the
     sphere around p (a sphere's closest point, as SceneGraph gives it: r_o =
     (|d| − ρ) d/|d|, d from p to the centre), nearest first (ties: the
@@ -211,13 +210,13 @@ def vehicle_readings(
     3 a reading of `scene`: zeros where the scene stands still, an
     `ObstacleVelocityEstimator`'s estimate among moving obstacles), per
     reading 1 where it is a vehicle, else 0)."""
-    m = len(centres)
-    gaps = np.zeros(OBSTACLE_COUNT + m)
-    points = np.zeros((OBSTACLE_COUNT + m, 3))
-    moving = np.full(OBSTACLE_COUNT + m, -1)  # the vehicle's index, or −1
-    slot = np.full(OBSTACLE_COUNT + m, -1)  # the scene reading's slot, or −1
+    m, count = len(centres), reading_count(scene)
+    gaps = np.zeros(count + m)
+    points = np.zeros((count + m, 3))
+    moving = np.full(count + m, -1)  # the vehicle's index, or −1
+    slot = np.full(count + m, -1)  # the scene reading's slot, or −1
     found = 0
-    for i in range(OBSTACLE_COUNT):
+    for i in range(count):
         j = READING_SIZE * i
         if scene[j + 3] > 0.5:
             gaps[found] = _length(scene[j], scene[j + 1], scene[j + 2])
@@ -237,12 +236,12 @@ def vehicle_readings(
             points[found] = (d0 * scale, d1 * scale, d2 * scale)
         moving[found] = k
         found += 1
-    vehicle = np.zeros(OBSTACLE_COUNT)
+    vehicle = np.zeros(count)
     if found == statics:
         return scene, scene_u.copy(), vehicle
-    u = np.zeros(3 * OBSTACLE_COUNT)
-    signal = np.zeros(OBSTACLE_SIGNAL_SIZE)
-    for i, c in enumerate(nearest_first(gaps[:found])):
+    u = np.zeros(3 * count)
+    signal = np.zeros(len(scene))
+    for i, c in enumerate(nearest_first(gaps[:found], count)):
         signal[READING_SIZE * i : READING_SIZE * i + 3] = points[c]
         signal[READING_SIZE * i + 3] = 1.0
         if moving[c] >= 0:

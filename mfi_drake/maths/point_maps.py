@@ -36,22 +36,24 @@ def downsample(points: np.ndarray, voxel: float) -> np.ndarray:
     return np.add.reduceat(points[order], starts, axis=0) / counts[:, None]
 
 
-def map_readings(xyz: np.ndarray, position: np.ndarray, radius: float) -> np.ndarray:
+def map_readings(
+    xyz: np.ndarray, position: np.ndarray, radius: float, count: int = OBSTACLE_COUNT
+) -> np.ndarray:
     """The "obstacle" signal (`maths.layout`) at `position` of the map
     `xyz` (3, n): its points within `radius` (inclusive) grouped by the
-    camera's perception, the nearest point of each of the OBSTACLE_COUNT
+    camera's perception, the nearest point of each of the `count`
     nearest groups, nearest first. The reading by its definition, over
     every point: `MapReader` reads the same, faster."""
     d = xyz - position[:, None]
     near = np.flatnonzero(np.einsum("ij,ij->j", d, d) <= radius * radius)
     points = xyz[:, near].T
     graph = voxel_graph(points)
-    basins = nearest_basins(points, graph, position, OBSTACLE_COUNT)
+    basins = nearest_basins(points, graph, position, count)
     chosen = np.zeros(graph.count, dtype=bool)
     chosen[basins] = True
     mine = chosen[graph.voxel_of]
     groups = Groups.of(points[mine], graph.voxel_of[mine])
-    return obstacle_signal(groups.nearest(position))
+    return obstacle_signal(groups.nearest(position), count)
 
 
 def nearest_points(
@@ -83,7 +85,7 @@ class MapReader:
     pass each (`map_kernels`).
     """
 
-    def __init__(self, points: np.ndarray, radius: float):
+    def __init__(self, points: np.ndarray, radius: float, count: int = OBSTACLE_COUNT):
         from scipy.spatial import cKDTree  # imported here: only a map pays
 
         from mfi_drake.maths import map_kernels
@@ -103,6 +105,7 @@ class MapReader:
         self._local = np.full(graph.count, -1)  # each voxel's run, if gathered
         self._tree = cKDTree(self._points)
         self._radius = float(radius)
+        self._count = int(count)  # readings a signal holds
         self._centre = None  # where the kept points were gathered
 
     def __call__(self, position: np.ndarray) -> np.ndarray:
@@ -117,14 +120,14 @@ class MapReader:
             xyz, runs, balls, position, self._radius * self._radius
         )
         graph = (voxels, self._adjacent, self._neighbours, self._local)
-        found = self._kernels.basins(nearest, graph, OBSTACLE_COUNT, DIP)
+        found = self._kernels.basins(nearest, graph, self._count, DIP)
         # Each basin's nearest point, nearest first, ties in voxel order (as
         # `Groups.nearest` sorts them).
         offsets = []
         for voxel in found.tolist():
             d = (xyz[:, best[voxel]] - position).tolist()
             offsets.append((d[0] * d[0] + d[1] * d[1] + d[2] * d[2], voxel, d))
-        return obstacle_signal([d for _, _, d in sorted(offsets)])
+        return obstacle_signal([d for _, _, d in sorted(offsets)], self._count)
 
     def _gather(self, position: np.ndarray) -> None:
         """Keeps the points within r_s (1 + MARGIN) of `position`: their xyz

@@ -51,11 +51,11 @@ from mfi_drake.config.scenario import (
 )
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
-    OBSTACLE_SIGNAL_SIZE,
     POSITION,
     STATE_SIZE,
     VELOCITY,
     obstacle_signal,
+    signal_size,
 )
 from mfi_drake.maths.perception import (
     Intrinsics,
@@ -177,7 +177,7 @@ class DepthCameraSensor(LeafSystem):
     Per camera i: "depth_image_i", an ImageDepth32F, and "point_cloud_i",
     its DepthImageToPointCloud cloud in the camera frame. "state": the
     controller's state estimate (12), which places the clouds in the world
-    and the vehicle in the memory. "obstacle": OBSTACLE_COUNT readings
+    and the vehicle in the memory. "obstacle": `readings` readings
     [r_o, seen], nearest first (`maths.layout`); "frames_rendered": images
     rendered so far. Abstract state: the `Percept`, updated every 1/rate_hz
     s from t = 0 (`perceive`), all cameras at once; discrete state: the image
@@ -198,9 +198,11 @@ class DepthCameraSensor(LeafSystem):
         memory_s: float,
         gimbal: Gimbal | None = None,
         p_BG=(0.0, 0.0, 0.0),
+        readings: int = OBSTACLE_COUNT,
     ):
         super().__init__()
         self.cameras = [CameraModel(camera) for camera in cameras]
+        self._count = int(readings)
         self._memory_s = float(memory_s)
         self._gimbal = gimbal
         self._p_BG = np.asarray(p_BG, dtype=float)
@@ -229,7 +231,7 @@ class DepthCameraSensor(LeafSystem):
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate_hz, 0.0, self._frame)
         self.DeclareVectorOutputPort(
             "obstacle",
-            OBSTACLE_SIGNAL_SIZE,
+            signal_size(self._count),
             self._calc,
             prerequisites_of_calc={
                 self.abstract_state_ticket(self._percept),
@@ -288,7 +290,7 @@ class DepthCameraSensor(LeafSystem):
             x[POSITION].copy(),
             self._memory_s,
             self._reach,
-            OBSTACLE_COUNT,
+            self._count,
         )
         state.get_mutable_abstract_state(self._percept).set_value(percept)
         frames = state.get_mutable_discrete_state(self._frames)
@@ -296,7 +298,8 @@ class DepthCameraSensor(LeafSystem):
 
     def _calc(self, context, output):
         p = self._state.Eval(context)[POSITION]
-        output.SetFromVector(obstacle_signal(self.percept(context).basins.nearest(p)))
+        nearest = self.percept(context).basins.nearest(p)
+        output.SetFromVector(obstacle_signal(nearest, self._count))
 
 
 def add_depth_cameras(
@@ -324,7 +327,9 @@ def add_depth_cameras(
     p_BG = sensor.position if gimbal else (0.0, 0.0, 0.0)
     perception = builder.AddNamedSystem(
         "sensor",
-        DepthCameraSensor(cameras, sensor.rate_hz, sensor.memory_s, gimbal, p_BG),
+        DepthCameraSensor(
+            cameras, sensor.rate_hz, sensor.memory_s, gimbal, p_BG, sensor.readings
+        ),
     )
     mount = body_frame
     if gimbal is not None:

@@ -47,9 +47,9 @@ from mfi_drake.config.dynamic import RelativeVelocity
 from mfi_drake.maths import escape, escape_steering, fields
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
-    OBSTACLE_SIGNAL_SIZE,
     STATE_SIZE,
     position_velocity,
+    signal_size,
 )
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.last_result import LastResult
@@ -88,6 +88,7 @@ class EscapeNavigator(LeafSystem):
     `relative_velocity`, enabled): the inputs "obstacle_velocity" and
     "vehicle_readings" (`OtherVehicleReadings`'), each reading's field with
     the velocity relative to it and the rule of the road (`keep_right`).
+    `readings`: the sensor's count, which sizes the inputs and the memory.
     """
 
     def __init__(
@@ -100,8 +101,11 @@ class EscapeNavigator(LeafSystem):
         ground: float | None = None,
         scene: bool = False,
         relative: RelativeVelocity | None = None,
+        readings: int = OBSTACLE_COUNT,
     ):
         super().__init__()
+        self.readings = int(readings)
+        size = signal_size(self.readings)
         self.params = copy.deepcopy(params)
         self.rule = copy.deepcopy(rule)
         self.goal = np.array(goal, dtype=float)
@@ -114,8 +118,8 @@ class EscapeNavigator(LeafSystem):
         self._rate = escape_steering.corner_rate(k, self.params.v_d, self.params.r_b)
         self._last = LastResult()
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
-        self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
-        self._memory = self.DeclareDiscreteState(escape.MEMORY_SIZE)
+        self._obstacle = self.DeclareVectorInputPort("obstacle", size)
+        self._memory = self.DeclareDiscreteState(escape.memory_size(self.readings))
         self._goal_mode = self.DeclareVectorInputPort("goal_mode", 1)
         tickets = {
             self._state.ticket(),
@@ -126,15 +130,15 @@ class EscapeNavigator(LeafSystem):
         # A fleet's: the static scene (the memory's), the others' velocities.
         self._scene = self._obstacle
         if scene:
-            self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE)
+            self._scene = self.DeclareVectorInputPort("scene", size)
             tickets.add(self._scene.ticket())
         self._relative = None
         if relative is not None:
             self._relative = (
                 relative.keep_right,
                 relative.own_pace,
-                self.DeclareVectorInputPort("obstacle_velocity", 3 * OBSTACLE_COUNT),
-                self.DeclareVectorInputPort("vehicle_readings", OBSTACLE_COUNT),
+                self.DeclareVectorInputPort("obstacle_velocity", 3 * self.readings),
+                self.DeclareVectorInputPort("vehicle_readings", self.readings),
             )
             tickets |= {port.ticket() for port in self._relative[2:]}
         # Discrete, not unrestricted, updates: a new memory invalidates what
@@ -157,7 +161,7 @@ class EscapeNavigator(LeafSystem):
     def initial_memory(self, x) -> np.ndarray:
         """The memory at initialization, the vehicle at state x."""
         p, _ = position_velocity(x)
-        return escape.initial_memory(p, self.goal)
+        return escape.initial_memory(p, self.goal, self.readings)
 
     def next_memory(self, memory, t: float, x, scene) -> np.ndarray:
         """The memory after the update at the start of a step at time t

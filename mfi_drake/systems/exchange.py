@@ -34,13 +34,13 @@ from pydrake.systems.framework import LeafSystem
 
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
-    OBSTACLE_SIGNAL_SIZE,
     POSITION,
     STATE_SIZE,
+    reading_count,
+    signal_size,
 )
 from mfi_drake.maths.motion import vehicle_readings
 from mfi_drake.systems.last_result import LastResult
-from mfi_drake.systems.relative import VELOCITY_SIGNAL_SIZE
 from mfi_drake.systems.sensors import VEHICLE_RGBA
 from mfi_drake.world.obstacles import sensed
 
@@ -87,7 +87,7 @@ class OtherVehicleReadings(LeafSystem):
 
     "obstacle" (input): the sphere sensor's readings of the scene without
     the vehicles; "other_vehicles": the last `message`; "obstacle" (output):
-    the OBSTACLE_COUNT nearest of those readings and of the others' spheres
+    the `readings` nearest of those readings and of the others' spheres
     within `sensor_radius` (a sphere's closest point, as SceneGraph gives
     it: r_o = (|d| − ρ) d/|d|, d from the vehicle to the centre);
     "obstacle_velocity": per output reading, its vehicle's velocity along
@@ -98,12 +98,19 @@ class OtherVehicleReadings(LeafSystem):
     reads in a fleet, `systems.escape`).
     """
 
-    def __init__(self, count: int, radius: float, sensor_radius: float):
+    def __init__(
+        self,
+        count: int,
+        radius: float,
+        sensor_radius: float,
+        readings: int = OBSTACLE_COUNT,
+    ):
         super().__init__()
+        signal = signal_size(readings)
         self._radius = float(radius)
         self._reach = float(sensor_radius)
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
-        self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
+        self._obstacle = self.DeclareVectorInputPort("obstacle", signal)
         self._message = self.DeclareVectorInputPort(
             "other_vehicles", message_size(count)
         )
@@ -111,9 +118,9 @@ class OtherVehicleReadings(LeafSystem):
         tickets.add(self.time_ticket())
         self._last = LastResult()
         outputs = (
-            ("obstacle", OBSTACLE_SIGNAL_SIZE),
-            ("obstacle_velocity", VELOCITY_SIGNAL_SIZE),
-            ("vehicle_readings", OBSTACLE_COUNT),
+            ("obstacle", signal),
+            ("obstacle_velocity", 3 * readings),
+            ("vehicle_readings", readings),
         )
         for k, (name, size) in enumerate(outputs):
             self.DeclareVectorOutputPort(
@@ -124,7 +131,7 @@ class OtherVehicleReadings(LeafSystem):
             )
         self.DeclareVectorOutputPort(
             "scene",
-            OBSTACLE_SIGNAL_SIZE,
+            signal,
             lambda context, out: out.SetFromVector(self._obstacle.Eval(context)),
             prerequisites_of_calc={self._obstacle.ticket()},
         )
@@ -149,7 +156,7 @@ def merge(
     centres, velocities = extrapolated(received, t)
     # The scene stands still for the rule of the road's readings (a moving
     # scene's velocities are the relative navigator's estimate).
-    still = np.zeros(3 * OBSTACLE_COUNT)
+    still = np.zeros(3 * reading_count(scene))
     return vehicle_readings(p, scene, still, centres, velocities, radius, reach)
 
 

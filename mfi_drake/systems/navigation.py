@@ -35,9 +35,10 @@ from pydrake.systems.scalar_conversion import TemplateSystem
 
 from mfi_drake.maths import baselines, fields
 from mfi_drake.maths.layout import (
-    OBSTACLE_SIGNAL_SIZE,
+    OBSTACLE_COUNT,
     STATE_SIZE,
     position_velocity,
+    signal_size,
 )
 from mfi_drake.systems.last_result import LastResult
 
@@ -90,16 +91,25 @@ def ObstacleNavigator_(T):
         "obstacle_force": F_o (3); "obstacle_force_terms": [A, B] (6).
         """
 
-        def _construct(self, field, params, goal, collision_radius, converter=None):
+        def _construct(
+            self,
+            field,
+            params,
+            goal,
+            collision_radius,
+            readings=OBSTACLE_COUNT,
+            converter=None,
+        ):
             LeafSystem_[T].__init__(self, converter)
             self.field = field
+            self.readings = int(readings)  # the sensor's count
             self.params = copy.deepcopy(params)
             self.goal = np.array(goal, dtype=float)
             self.collision_radius = float(collision_radius)
             self._last = LastResult(enabled=T is float)
             self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
             self._obstacle = self.DeclareVectorInputPort(
-                "obstacle", OBSTACLE_SIGNAL_SIZE
+                "obstacle", signal_size(self.readings)
             )
             tickets = {self._state.ticket(), self._obstacle.ticket()}
             declare_obstacle_force_ports(self, self._terms, tickets)
@@ -111,6 +121,7 @@ def ObstacleNavigator_(T):
                 other.params,
                 other.goal,
                 other.collision_radius,
+                other.readings,
                 converter=converter,
             )
 
@@ -141,23 +152,25 @@ def ObstacleNavigator_(T):
 ObstacleNavigator = ObstacleNavigator_[None]
 
 
-def MfiNavigator(params, goal, collision_radius: float):
+def MfiNavigator(params, goal, collision_radius: float, readings=OBSTACLE_COUNT):
     """The MFI obstacle field F_o = F + F_a (eq 11–15); terms [F, F_a]."""
-    return ObstacleNavigator(fields.obstacle_field, params, goal, collision_radius)
-
-
-def ApfNavigator(params, goal, collision_radius: float):
-    """APF's obstacle part: Khatib's repulsion; terms [F_rep, 0]."""
     return ObstacleNavigator(
-        baselines.apf_obstacle_field, params, goal, collision_radius
+        fields.obstacle_field, params, goal, collision_radius, readings
     )
 
 
-def GfNavigator(params, goal, collision_radius: float):
+def ApfNavigator(params, goal, collision_radius: float, readings=OBSTACLE_COUNT):
+    """APF's obstacle part: Khatib's repulsion; terms [F_rep, 0]."""
+    return ObstacleNavigator(
+        baselines.apf_obstacle_field, params, goal, collision_radius, readings
+    )
+
+
+def GfNavigator(params, goal, collision_radius: float, readings=OBSTACLE_COUNT):
     """GF's obstacle part: gyroscopic steering plus repulsion; terms
     [S ṗ, F_rep]."""
     return ObstacleNavigator(
-        baselines.gf_obstacle_field, params, goal, collision_radius
+        baselines.gf_obstacle_field, params, goal, collision_radius, readings
     )
 
 

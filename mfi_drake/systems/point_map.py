@@ -3,14 +3,14 @@
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, POSITION, STATE_SIZE
+from mfi_drake.maths.layout import OBSTACLE_COUNT, POSITION, STATE_SIZE, signal_size
 from mfi_drake.maths.point_maps import MapReader
 
 
 class PointMapSensor(LeafSystem):
     """The sphere sensor of a point-cloud map: the map's points within r_s,
     grouped into obstacles as the depth camera's perception groups its
-    samples, the closest point of each of the OBSTACLE_COUNT nearest
+    samples, the closest point of each of the `readings` nearest
     (`maths.point_maps.map_readings`, read by a `MapReader`: the points
     near the vehicle only).
 
@@ -22,19 +22,21 @@ class PointMapSensor(LeafSystem):
         output_ports:
         - obstacle
 
-    "state": the plant's 12-vector; "obstacle": OBSTACLE_COUNT readings
+    "state": the plant's 12-vector; "obstacle": `readings` readings
     [r_o, seen], nearest first (`maths.layout`). `points` (n, 3), world
     frame, are copied at construction.
     """
 
-    def __init__(self, points, radius: float):
+    def __init__(self, points, radius: float, readings: int = OBSTACLE_COUNT):
         super().__init__()
-        self._read = MapReader(np.array(points, dtype=float).reshape(-1, 3), radius)
+        self._read = MapReader(
+            np.array(points, dtype=float).reshape(-1, 3), radius, readings
+        )
         self._last = (None, None)  # (position bytes, reading): see _calc
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self.DeclareVectorOutputPort(
             "obstacle",
-            OBSTACLE_SIGNAL_SIZE,
+            signal_size(readings),
             self._calc,
             prerequisites_of_calc={self._state.ticket()},
         )

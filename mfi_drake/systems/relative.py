@@ -29,10 +29,10 @@ from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 from mfi_drake.config.dynamic import RelativeVelocity
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
-    OBSTACLE_SIGNAL_SIZE,
     POSITION,
     STATE_SIZE,
     readings,
+    signal_size,
 )
 from mfi_drake.maths.motion import (
     PACE_BLEND_SPEED,
@@ -43,7 +43,7 @@ from mfi_drake.maths.motion import (
 )
 from mfi_drake.systems.last_result import LastResult
 
-VELOCITY_SIGNAL_SIZE = 3 * OBSTACLE_COUNT  # u of each reading, nearest first
+VELOCITY_SIGNAL_SIZE = 3 * OBSTACLE_COUNT  # u of each reading, default count
 
 
 @dataclass(frozen=True)
@@ -81,7 +81,7 @@ class ObstacleVelocityEstimator(LeafSystem):
         - obstacle_velocity
 
     "state": the state the controller reads (12); "obstacle": the readings of
-    `maths.layout`; "obstacle_velocity": OBSTACLE_COUNT 3-vectors u, one per
+    `maths.layout`; "obstacle_velocity": `readings` 3-vectors u, one per
     reading (zero where nothing is seen or nothing is known yet).
 
     Every h = 1/rate_hz s from t = 0, each seen reading's closest point
@@ -94,18 +94,27 @@ class ObstacleVelocityEstimator(LeafSystem):
     its own normal.
     """
 
-    def __init__(self, rate_hz: float, time_constant: float, gate: float):
+    def __init__(
+        self,
+        rate_hz: float,
+        time_constant: float,
+        gate: float,
+        readings: int = OBSTACLE_COUNT,
+    ):
         super().__init__()
+        self._count = int(readings)
         self._h = 1.0 / float(rate_hz)
         self._alpha = self._h / (float(time_constant) + self._h)
         self._gate = float(gate)
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
-        self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
+        self._obstacle = self.DeclareVectorInputPort(
+            "obstacle", signal_size(self._count)
+        )
         self._tracks = self.DeclareAbstractState(AbstractValue.Make(Tracks.empty()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(self._h, 0.0, self._sample)
         self.DeclareVectorOutputPort(
             "obstacle_velocity",
-            VELOCITY_SIGNAL_SIZE,
+            3 * self._count,
             self._calc,
             prerequisites_of_calc={
                 self._state.ticket(),
@@ -137,7 +146,7 @@ class ObstacleVelocityEstimator(LeafSystem):
     def _calc(self, context, output):
         tracks = self.tracks(context)
         seen, points = _seen(self._state.Eval(context), self._obstacle.Eval(context))
-        u = np.zeros((OBSTACLE_COUNT, 3))
+        u = np.zeros((self._count, 3))
         for (slot, r_o), j in zip(
             seen, match_points(points, tracks.points, self._gate), strict=True
         ):
@@ -174,29 +183,33 @@ class RelativeNavigator(LeafSystem):
     reading is another vehicle, `OtherVehicleReadings`) and the rule of the
     road: a vehicle reading's relative velocity is turned that far right
     about e_z (`maths.motion.turned_right`) before its term is evaluated.
+    `readings`: how many readings the "obstacle" input holds.
     """
 
     def __init__(
-        self, navigator, own_pace: bool, blend_speed: float, keep_right: float = 0.0
+        self,
+        navigator,
+        own_pace: bool,
+        blend_speed: float,
+        keep_right: float = 0.0,
+        readings: int = OBSTACLE_COUNT,
     ):
         super().__init__()
+        count = int(readings)
         self._navigator = navigator
         self._own_pace = bool(own_pace)
         self._blend = float(blend_speed)
         self._keep_right = float(keep_right)
         self._last = LastResult()
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
-        self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
-        self._velocity = self.DeclareVectorInputPort(
-            "obstacle_velocity", VELOCITY_SIGNAL_SIZE
-        )
+        self._obstacle = self.DeclareVectorInputPort("obstacle", signal_size(count))
+        self._velocity = self.DeclareVectorInputPort("obstacle_velocity", 3 * count)
+        self._no_turns = np.zeros(count)
         tickets = {port.ticket() for port in (self._state, self._obstacle)}
         tickets.add(self._velocity.ticket())
         self._vehicles = None
         if self._keep_right > 0.0:
-            self._vehicles = self.DeclareVectorInputPort(
-                "vehicle_readings", OBSTACLE_COUNT
-            )
+            self._vehicles = self.DeclareVectorInputPort("vehicle_readings", count)
             tickets.add(self._vehicles.ticket())
         for k, (name, size) in enumerate(
             (("obstacle_force", 3), ("obstacle_force_terms", 6))
@@ -213,7 +226,7 @@ class RelativeNavigator(LeafSystem):
         x = self._state.Eval(context)
         obstacle = self._obstacle.Eval(context)
         u = self._velocity.Eval(context)
-        turns = NO_TURNS
+        turns = self._no_turns
         if self._vehicles is not None:
             turns = self._keep_right * self._vehicles.Eval(context)
         key = x.tobytes() + obstacle.tobytes() + u.tobytes() + turns.tobytes()
@@ -235,14 +248,12 @@ class RelativeNavigator(LeafSystem):
         )
 
 
-NO_TURNS = np.zeros(OBSTACLE_COUNT)
-
-
 def relative_navigator(
     make_navigator: Callable[[], LeafSystem],
     estimate: RelativeVelocity,
     rate_hz: float,
     keep_right: float = 0.0,
+    readings: int = OBSTACLE_COUNT,
 ) -> Diagram:
     """A navigator that sums `make_navigator()`'s field over the readings,
     each with the velocity relative to its obstacle, estimated from readings
@@ -251,16 +262,18 @@ def relative_navigator(
     vehicle's own velocity. `make_navigator()` must be an
     `ObstacleNavigator`, whose force is the sum of its readings'.
     `keep_right` > 0: `RelativeNavigator`'s rule of the road, its input
-    "vehicle_readings" exported."""
+    "vehicle_readings" exported. `readings`: the sensor's count."""
     builder = DiagramBuilder()
     estimator = builder.AddNamedSystem(
         "velocity_estimator",
-        ObstacleVelocityEstimator(rate_hz, estimate.time_constant, estimate.gate),
+        ObstacleVelocityEstimator(
+            rate_hz, estimate.time_constant, estimate.gate, readings
+        ),
     )
     navigator = builder.AddNamedSystem(
         "relative_navigator",
         RelativeNavigator(
-            make_navigator(), estimate.own_pace, PACE_BLEND_SPEED, keep_right
+            make_navigator(), estimate.own_pace, PACE_BLEND_SPEED, keep_right, readings
         ),
     )
     for name in ("state", "obstacle"):

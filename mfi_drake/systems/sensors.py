@@ -23,10 +23,11 @@ from pydrake.systems.framework import LeafSystem
 from mfi_drake.config import vehicle_model
 from mfi_drake.config.vehicle_model import vehicle_parts
 from mfi_drake.maths.layout import (
-    OBSTACLE_SIGNAL_SIZE,
+    OBSTACLE_COUNT,
     POSITION,
     READING_SIZE,
     STATE_SIZE,
+    signal_size,
 )
 from mfi_drake.world.obstacles import nearest_obstacles
 
@@ -51,17 +52,24 @@ class AnchoredReadings:
     The query object is valid only during its evaluation: not kept.
     """
 
-    def __init__(self, radius: float, n: int, ignore: frozenset = frozenset()):
+    def __init__(
+        self,
+        radius: float,
+        n: int,
+        ignore: frozenset = frozenset(),
+        count: int = OBSTACLE_COUNT,
+    ):
         self._radius = float(radius)
         self._ignore = frozenset(ignore)
+        self._count = int(count)  # readings a vehicle's signal holds
         self._version = None  # the proximity geometry's, at the last call
-        self._all = (None, None)  # (every position's bytes, readings (n, 12))
+        self._all = (None, None)  # (every position's bytes, readings (n, 4 count))
         # A vehicle's (position bytes, reading, position as floats, distance
         # of its farthest reading or None) at its last query.
         self._last = [(None, None, None, None)] * n
 
     def __call__(self, query, positions: np.ndarray) -> np.ndarray:
-        """The readings (n, OBSTACLE_SIGNAL_SIZE) at `positions` (n, 3)."""
+        """The readings (n, signal_size(count)) at `positions` (n, 3)."""
         current = query.inspector().geometry_version()
         same = self._version is not None and current.IsSameAs(
             self._version, Role.kProximity
@@ -88,10 +96,10 @@ class AnchoredReadings:
         reach = self._radius
         if same and farthest is not None:
             reach = min(reach, farthest + math.dist(point, last_point) + SLACK)
-        value = nearest_obstacles(query, p, reach, self._ignore)
+        value = nearest_obstacles(query, p, reach, self._ignore, self._count)
         if value[-1] <= 0.5 and reach < self._radius:
             value = nearest_obstacles(
-                query, p, self._radius, self._ignore
+                query, p, self._radius, self._ignore, self._count
             )  # never met so far
         farthest = None
         if value[-1] > 0.5:  # every reading seen: the last is the farthest
@@ -102,7 +110,7 @@ class AnchoredReadings:
 
 class SphereSensor(LeafSystem):
     """The paper's local sensor (§III): the closest obstacle point within r_s,
-    of each of the OBSTACLE_COUNT nearest obstacles (`maths.layout`).
+    of each of the `readings` nearest obstacles (`maths.layout`).
 
     .. pydrake_system::
 
@@ -114,7 +122,7 @@ class SphereSensor(LeafSystem):
         - obstacle
 
     "query": SceneGraph's QueryObject; "state": the plant's 12-vector;
-    "obstacle": OBSTACLE_COUNT readings [r_o, seen], nearest first.
+    "obstacle": `readings` readings [r_o, seen], nearest first.
 
     `moving`: whether proximity geometry moves (obstacles with a motion,
     other vehicles), which turns off the memo of the last reading
@@ -122,18 +130,27 @@ class SphereSensor(LeafSystem):
     vehicle's own shapes, where it has proximity geometry in SceneGraph).
     """
 
-    def __init__(self, radius: float, moving: bool = False, ignore=()):
+    def __init__(
+        self,
+        radius: float,
+        moving: bool = False,
+        ignore=(),
+        readings: int = OBSTACLE_COUNT,
+    ):
         super().__init__()
         self._radius = float(radius)
         self._ignore = frozenset(ignore)
-        self._anchored = None if moving else AnchoredReadings(radius, 1, ignore)
+        self._count = int(readings)
+        self._anchored = (
+            None if moving else AnchoredReadings(radius, 1, ignore, self._count)
+        )
         self._query = self.DeclareAbstractInputPort(
             "query", AbstractValue.Make(QueryObject())
         )
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
         self.DeclareVectorOutputPort(
             "obstacle",
-            OBSTACLE_SIGNAL_SIZE,
+            signal_size(self._count),
             self._calc,
             prerequisites_of_calc={self._query.ticket(), self._state.ticket()},
         )
@@ -142,7 +159,7 @@ class SphereSensor(LeafSystem):
         p = self._state.Eval(context)[POSITION]
         query = self._query.Eval(context)
         if self._anchored is None:
-            value = nearest_obstacles(query, p, self._radius, self._ignore)
+            value = nearest_obstacles(query, p, self._radius, self._ignore, self._count)
         else:
             value = self._anchored(query, p.reshape(1, 3))[0]
         output.SetFromVector(value)
@@ -165,22 +182,31 @@ class FleetSceneSensor(LeafSystem):
         - scene
 
     "query": SceneGraph's QueryObject; "states": the n plants' states,
-    stacked (12 n); "scene": each vehicle's OBSTACLE_COUNT readings
-    [r_o, seen], nearest first, stacked (OBSTACLE_SIGNAL_SIZE n).
+    stacked (12 n); "scene": each vehicle's `readings` readings
+    [r_o, seen], nearest first, stacked (4 readings n).
     """
 
-    def __init__(self, radius: float, n: int, moving: bool = False):
+    def __init__(
+        self,
+        radius: float,
+        n: int,
+        moving: bool = False,
+        readings: int = OBSTACLE_COUNT,
+    ):
         super().__init__()
         self._n = int(n)
         self._radius = float(radius)
-        self._anchored = None if moving else AnchoredReadings(radius, self._n)
+        self._count = int(readings)
+        self._anchored = (
+            None if moving else AnchoredReadings(radius, self._n, count=self._count)
+        )
         self._query = self.DeclareAbstractInputPort(
             "query", AbstractValue.Make(QueryObject())
         )
         self._states = self.DeclareVectorInputPort("states", STATE_SIZE * self._n)
         self.DeclareVectorOutputPort(
             "scene",
-            OBSTACLE_SIGNAL_SIZE * self._n,
+            signal_size(self._count) * self._n,
             self._calc,
             prerequisites_of_calc={self._query.ticket(), self._states.ticket()},
         )
@@ -190,7 +216,12 @@ class FleetSceneSensor(LeafSystem):
         query = self._query.Eval(context)
         if self._anchored is None:
             readings = np.concatenate(
-                [nearest_obstacles(query, x[POSITION], self._radius) for x in states]
+                [
+                    nearest_obstacles(
+                        query, x[POSITION], self._radius, count=self._count
+                    )
+                    for x in states
+                ]
             )
         else:
             readings = self._anchored(query, states[:, POSITION]).ravel()

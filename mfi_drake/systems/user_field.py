@@ -10,10 +10,11 @@ from pydrake.systems.framework import LeafSystem
 
 from mfi_drake.maths.fields import MODE_PD
 from mfi_drake.maths.layout import (
-    OBSTACLE_SIGNAL_SIZE,
+    OBSTACLE_COUNT,
     STATE_SIZE,
     position_velocity,
     seen_points,
+    signal_size,
 )
 from mfi_drake.systems.last_result import LastResult
 
@@ -46,7 +47,14 @@ class UserFieldNavigator(LeafSystem):
     "obstacle_force_terms": [F_n, 0] (6).
     """
 
-    def __init__(self, field, name: str, goal, gains: dict | None = None):
+    def __init__(
+        self,
+        field,
+        name: str,
+        goal,
+        gains: dict | None = None,
+        readings: int = OBSTACLE_COUNT,
+    ):
         super().__init__()
         self.field = field
         self.field_name = name
@@ -54,7 +62,7 @@ class UserFieldNavigator(LeafSystem):
         self.gains = dict(gains or {})  # keyword arguments of every call
         self._last = LastResult()
         self._state = self.DeclareVectorInputPort("state", STATE_SIZE)
-        self._obstacle = self.DeclareVectorInputPort("obstacle", OBSTACLE_SIGNAL_SIZE)
+        self._obstacle = self.DeclareVectorInputPort("obstacle", signal_size(readings))
         tickets = {self._state.ticket(), self._obstacle.ticket()}
         self.DeclareVectorOutputPort(
             "obstacle_force",

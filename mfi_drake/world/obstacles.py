@@ -26,7 +26,7 @@ from pydrake.math import RigidTransform
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import moves
-from mfi_drake.maths.layout import nearest_first, obstacle_signal
+from mfi_drake.maths.layout import OBSTACLE_COUNT, nearest_first, obstacle_signal
 from mfi_drake.maths.point_maps import nearest_points
 from mfi_drake.world.motion import ObstacleFrames, obstacle_pose
 from mfi_drake.world.shapes import bounding_radius, drake_shape, shape_mesh
@@ -123,10 +123,14 @@ def sensed(instance: GeometryInstance, rgba: Rgba, label: RenderLabel) -> None:
 
 
 def nearest_obstacles(
-    query_object, p: np.ndarray, threshold: float, ignore: frozenset = frozenset()
+    query_object,
+    p: np.ndarray,
+    threshold: float,
+    ignore: frozenset = frozenset(),
+    count: int = OBSTACLE_COUNT,
 ) -> np.ndarray:
-    """The "obstacle" signal: the closest point of each of the
-    OBSTACLE_COUNT proximity geometries nearest to p within `threshold`,
+    """The "obstacle" signal of `count` readings: the closest point of each
+    of the `count` proximity geometries nearest to p within `threshold`,
     but those whose GeometryId is in `ignore` (a vehicle's own geometry).
 
     Uses SceneGraph's ComputeSignedDistanceToPoint: the closest point is
@@ -140,12 +144,12 @@ def nearest_obstacles(
         results = [r for r in results if r.id_G not in ignore]
     distances = [r.distance for r in results]
     points = []
-    for i in nearest_first(distances):
+    for i in nearest_first(distances, count):
         # In floats, (−d) g_i as numpy would multiply it, without numpy's
         # cost a product (~1 µs a reading).
         d, (x, y, z) = -distances[i], results[i].grad_W.tolist()
         points.append((d * x, d * y, d * z))
-    return obstacle_signal(points)
+    return obstacle_signal(points, count)
 
 
 def obstacle_distances(
