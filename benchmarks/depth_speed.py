@@ -37,7 +37,8 @@ import time
 
 import numpy as np
 
-from mfi_drake.config.scenario import Gimbal, Scenario, ScenarioError, SphereSensor
+from mfi_drake.config.scenario import Scenario, ScenarioError, SphereSensor
+from mfi_drake.config.sensors import Gimbal
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.result import Flight
 from mfi_drake.flight.simulation import simulate

@@ -16,22 +16,13 @@ from pydrake.systems.framework import DiagramBuilder
 
 from mfi_drake.app.cli import main
 from mfi_drake.config.parameters import NavigatorParams
-from mfi_drake.config.scenario import (
-    Box,
-    Cylinder,
-    DepthCamera,
-    DepthCameraRig,
-    Gimbal,
-    Obstacle,
-    RigCamera,
-    Scenario,
-    Sphere,
-)
+from mfi_drake.config.scenario import Box, Cylinder, Obstacle, Scenario, Sphere
 from mfi_drake.config.scenario_yaml import parse_scenario, read_override
+from mfi_drake.config.sensors import DepthCamera, DepthCameraRig, Gimbal, RigCamera
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.simulation import simulate
+from mfi_drake.maths.gimbal import gimbal_rotation, point_gimbal
 from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, VELOCITY, seen_points
-from mfi_drake.maths.perception import gimbal_rotation, point_gimbal
 from mfi_drake.maths.quadcopter import desired_yaw
 from mfi_drake.systems.camera import add_depth_cameras, mounted_cameras
 from mfi_drake.systems.sensors import VehicleGeometry

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.config import sensors
 from mfi_drake.config.navigation import navigation_config
 from mfi_drake.config.scenario_yaml import layer, parse_scenario, read_override
 from mfi_drake.config.vehicles import VEHICLES
@@ -396,7 +397,7 @@ def test_the_rule_flies_with_the_depth_camera_rig_where_asked(kind, index):
     view (cup 0 opens toward the start: the escape rounds it)."""
     rig3 = read_override(os.path.join(SCENARIOS, "sensors", "rig3.yaml"))
     world = layer(nonconvex_world(kind, 0, index), rig3[1], rig3[0])
-    assert isinstance(world.sensor, sc.DepthCameraRig)
+    assert isinstance(world.sensor, sensors.DepthCameraRig)
     # Asked for: with cameras MFI flies memoryless by default (`escape_off`).
     world = dataclasses.replace(
         world, escape=dataclasses.replace(world.escape, cameras=True)

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from mfi_drake.config.parameters import NavigatorParams
-from mfi_drake.config.scenario import DepthCamera, OtherVehicle
+from mfi_drake.config.scenario import OtherVehicle
+from mfi_drake.config.sensors import DepthCamera
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.fleet import unsupported
 from mfi_drake.flight.simulation import simulate

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from mfi_drake.config import scenario as sc
+from mfi_drake.config import sensors
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import escape, escape_steering
@@ -103,7 +104,7 @@ def camera(scenario: sc.Scenario) -> sc.Scenario:
     paper's, for the test's cost), the escape rule on (asked)."""
     return dataclasses.replace(
         scenario,
-        sensor=sc.DepthCamera(width=80, height=60, rate_hz=10.0),
+        sensor=sensors.DepthCamera(width=80, height=60, rate_hz=10.0),
         escape=dataclasses.replace(scenario.escape, cameras=True),
     )
 

@@ -33,7 +33,7 @@ from mfi_drake import (
     vehicle_model_path,
 )
 from mfi_drake.config.dynamic import Ground, RelativeVelocity
-from mfi_drake.config.scenario import Gimbal
+from mfi_drake.config.sensors import Gimbal
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.maths.escape import EscapeParams
 from mfi_drake.world.motion import obstacles_move

@@ -8,6 +8,7 @@ from pydrake.geometry import SceneGraph
 
 from mfi_drake.app.cli import main
 from mfi_drake.config import scenario as sc
+from mfi_drake.config import sensors
 from mfi_drake.flight.diagram import build_diagram
 from mfi_drake.flight.step import NavigationStep
 from mfi_drake.maths import escape
@@ -62,7 +63,7 @@ def test_every_port_and_the_escape_memory_follow_the_count():
     assert memory == escape.MEMORY_SIZE + escape.PER_READING * (5 - OBSTACLE_COUNT)
     columns = flight.log_slices()["obstacle"]
     assert columns.stop - columns.start == 20
-    camera = sc.DepthCamera(readings=5)
+    camera = sensors.DepthCamera(readings=5)
     depth = DepthCameraSensor(mounted_cameras(camera), 30.0, 6.0, readings=5)
     point_map = PointMapSensor(np.zeros((1, 3)), 3.0, readings=5)
     fleet = OtherVehicleReadings(2, 0.225, 3.0, readings=5)

@@ -12,7 +12,8 @@ import pytest
 
 from mfi_drake.config.dynamic import Motion
 from mfi_drake.config.faults import Faults
-from mfi_drake.config.scenario import DepthCamera, Obstacle, Scenario, Sphere
+from mfi_drake.config.scenario import Obstacle, Scenario, Sphere
+from mfi_drake.config.sensors import DepthCamera
 from mfi_drake.flight.monitors import settles
 from mfi_drake.flight.simulation import simulate
 

@@ -16,9 +16,15 @@ import os
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.common.schema import Transform
 from pydrake.systems.analysis import SimulatorConfig
 
+from mfi_drake.config.checks import (
+    ScenarioError,
+    check_positive,
+    check_vector,
+    fail,
+    is_number,
+)
 from mfi_drake.config.dynamic import (
     MOTION_KEYS,
     Ground,
@@ -36,11 +42,11 @@ from mfi_drake.config.parameters import (
     paper_form,
     validate_params,
 )
+from mfi_drake.config.sensors import Sensor, SphereSensor, check_sensor
 from mfi_drake.config.vehicle_model import VehicleModel, vehicle_field_problems
 from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.config.worlds import WorldPose, world_problems
 from mfi_drake.maths.escape import EscapeParams
-from mfi_drake.maths.layout import OBSTACLE_COUNT
 from mfi_drake.maths.point_maps import MAP_VOXEL
 
 FLEET_INTEGRATIONS = ("separate", "one")
@@ -52,11 +58,6 @@ ENGINES = ("systems", "compiled")
 MAP_SUFFIXES = (".ply", ".pcd", ".las", ".laz")
 
 
-class ScenarioError(ValueError):
-    """A scenario that cannot be flown; the message is one line for the user."""
-
-
-# --- obstacle shapes (the YAML tags !Box, !Sphere, ...) -----------------------
 @dataclass
 class Box:
     size: list[float] = field(default_factory=lambda: [1.0, 1.0, 1.0])  # m
@@ -117,89 +118,6 @@ class Obstacle:
     # What errors call it ("" : "an obstacle"); a world file's obstacles are
     # named "world 'yard.sdf' model 'wall' geometry 'collision'".
     name: str = ""
-
-
-# --- sensors ------------------------------------------------------------------
-@dataclass
-class SphereSensor:
-    """Sees every obstacle point within `radius` of the vehicle centre."""
-
-    radius: float = 3.0  # m, the paper's r_s
-    readings: int = OBSTACLE_COUNT  # obstacles reported, nearest first (≥ 1)
-
-
-@dataclass
-class CameraImage:
-    """The depth image of an on-board camera (square pixels, principal point
-    at the centre)."""
-
-    width: int = 160  # pixels
-    height: int = 120  # pixels
-    fov_y_deg: float = 60.0  # vertical field of view, degrees
-    max_range: float = 6.0  # m; farther pixels are "no return"
-
-
-MEMORY_S = 6.0  # s, default T: max_range / v_d (docs/depth_camera.md, "Memory")
-
-
-@dataclass
-class Gimbal:
-    """A pan–tilt gimbal, stabilised in the world, that turns the camera
-    toward the estimated velocity (docs/depth_camera.md, "Gimbal")."""
-
-    rate_deg_s: float = 180.0  # largest slew rate of each axis
-    min_speed: float = 0.2  # m/s; slower, the gimbal holds its direction
-
-
-@dataclass
-class DepthCamera(CameraImage):
-    """An on-board depth camera (paper §VI-B) looking +x: a rig of one
-    camera, fixed to the body or on a gimbal."""
-
-    rate_hz: float = 30.0  # frames per second
-    # The camera's pose: optical centre in the body frame [m] and orientation
-    # [deg] in the body frame, or on a gimbal in the gimbal's frame (zero:
-    # looking along its +x, image up = its +z).
-    position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    rpy_deg: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    memory_s: float = MEMORY_S  # s, T: how long a seen point is remembered
-    # None: fixed to the body, as in the paper; a `Gimbal`: looking where the
-    # vehicle goes (docs/depth_camera.md, "Gimbal").
-    gimbal: Gimbal | None = None
-    readings: int = OBSTACLE_COUNT  # obstacles reported, nearest first (≥ 1)
-
-
-def looking_forward() -> Transform:
-    """X_BC of a camera at the body origin looking along body +x, image up =
-    body +z (C: Drake's camera frame, +z along the view, +x image right)."""
-    X_BC = Transform()
-    X_BC.set_rotation_rpy_deg([-90.0, 0.0, -90.0])
-    return X_BC
-
-
-@dataclass
-class RigCamera(CameraImage):
-    """A camera of a `DepthCameraRig`, posed as Drake poses a camera:
-    X_BC: {translation: [x, y, z], rotation: !Rpy {deg: [r, p, y]}}, the
-    camera frame C (+z along the view, +x image right, +y image down) in the
-    body frame B. Default: `looking_forward`."""
-
-    X_BC: Transform = field(default_factory=looking_forward)
-
-
-@dataclass
-class DepthCameraRig:
-    """Depth cameras on the body, rendering together at rate_hz; what they
-    see is fused into one memory and one reading."""
-
-    cameras: list[RigCamera] = field(default_factory=lambda: [RigCamera()])
-    rate_hz: float = 30.0  # frames per second, every camera
-    memory_s: float = MEMORY_S  # s, T: how long a seen point is remembered
-    readings: int = OBSTACLE_COUNT  # obstacles reported, nearest first (≥ 1)
-
-
-Sensor = SphereSensor | DepthCamera | DepthCameraRig
-Cameras = DepthCamera | DepthCameraRig  # the sensors that render depth images
 
 
 def default_simulator_config() -> SimulatorConfig:
@@ -269,22 +187,6 @@ class Scenario:
     base_dir: str = ""
 
 
-def fail(where: str, name: str, value, reason: str):
-    if not name.isprintable():  # a YAML key may hold a line break
-        name = repr(name)
-    raise ScenarioError(f"{where}: {name} = {value!r}: {reason}")
-
-
-def _check_vector(where, name, value, positive=False):
-    if not isinstance(value, list) or len(value) != 3:
-        fail(where, name, value, "must be a list of 3 numbers")
-    for x in value:
-        if not isinstance(x, int | float) or not math.isfinite(x):
-            fail(where, name, value, "must hold finite numbers")
-        if positive and x <= 0:
-            fail(where, name, value, "must be > 0")
-
-
 def _check_goal(where: str, name: str, goal: list[float]) -> None:
     """A goal has no default: an empty one was not given."""
     if goal == []:
@@ -292,58 +194,7 @@ def _check_goal(where: str, name: str, goal: list[float]) -> None:
             f"{where}: {name}: missing; every vehicle needs the point [x, y, z] "
             "(m) it flies to"
         )
-    _check_vector(where, name, goal)
-
-
-def _check_positive(where, name, value):
-    if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
-        fail(where, name, value, "must be a finite number > 0")
-
-
-MIN_DEPTH = 0.02  # m; a depth camera's closer pixels come back as "too close"
-
-
-def _check_image(where: str, name: str, camera: CameraImage) -> None:
-    """`name`: the camera's path in the scenario, e.g. "sensor.cameras[1]"."""
-    for size in ("width", "height"):
-        value = getattr(camera, size)
-        if not isinstance(value, int) or value <= 0:
-            fail(where, f"{name}.{size}", value, "must be a whole number > 0")
-    fov = camera.fov_y_deg
-    _check_positive(where, f"{name}.fov_y_deg", fov)
-    if fov >= 180.0:
-        fail(where, f"{name}.fov_y_deg", fov, "must be < 180")
-    _check_positive(where, f"{name}.max_range", camera.max_range)
-    if camera.max_range <= MIN_DEPTH:
-        fail(where, f"{name}.max_range", camera.max_range, f"must be > {MIN_DEPTH}")
-
-
-def _check_camera_pose(where: str, name: str, X_BC: Transform) -> None:
-    if X_BC.base_frame is not None:
-        fail(where, f"{name}.base_frame", X_BC.base_frame, "must be left out (body)")
-    if not X_BC.IsDeterministic():
-        fail(where, name, X_BC, "must be one fixed pose")
-    pose = X_BC.GetDeterministicValue()
-    if not all(math.isfinite(x) for x in pose.GetAsMatrix4().ravel()):
-        fail(where, name, X_BC, "must hold finite numbers")
-
-
-def _check_cameras(where: str, sensor: Cameras) -> None:
-    _check_positive(where, "sensor.rate_hz", sensor.rate_hz)
-    _check_positive(where, "sensor.memory_s", sensor.memory_s)
-    if isinstance(sensor, DepthCamera):
-        _check_image(where, "sensor", sensor)
-        _check_vector(where, "sensor.position", sensor.position)
-        _check_vector(where, "sensor.rpy_deg", sensor.rpy_deg)
-        if sensor.gimbal is not None:
-            _check_positive(where, "sensor.gimbal.rate_deg_s", sensor.gimbal.rate_deg_s)
-            _check_positive(where, "sensor.gimbal.min_speed", sensor.gimbal.min_speed)
-        return
-    if not sensor.cameras:
-        fail(where, "sensor.cameras", sensor.cameras, "must hold a camera")
-    for i, camera in enumerate(sensor.cameras):
-        _check_image(where, f"sensor.cameras[{i}]", camera)
-        _check_camera_pose(where, f"sensor.cameras[{i}].X_BC", camera.X_BC)
+    check_vector(where, name, goal)
 
 
 def mesh_path(scenario: Scenario, shape: Convex) -> str:
@@ -357,7 +208,7 @@ def _check_convex(where: str, shape: Convex) -> None:
     if bool(shape.file) == bool(shape.vertices):
         fail(where, "shape", shape, "must give one of file and vertices")
     for i, vertex in enumerate(shape.vertices):
-        _check_vector(where, f"shape.vertices[{i}]", vertex)
+        check_vector(where, f"shape.vertices[{i}]", vertex)
 
 
 def _check_shape(where: str, shape) -> None:
@@ -376,14 +227,14 @@ def _check_shape(where: str, shape) -> None:
         if f.name == "vertices":
             continue
         if isinstance(value, list):
-            _check_vector(where, f"shape.{f.name}", value, positive=True)
+            check_vector(where, f"shape.{f.name}", value, positive=True)
         elif not isinstance(value, str):
-            _check_positive(where, f"shape.{f.name}", value)
+            check_positive(where, f"shape.{f.name}", value)
 
 
 def _check_motion(where: str, motion: Motion) -> None:
     for key in MOTION_KEYS:
-        _check_vector(where, f"motion.{key}", getattr(motion, key))
+        check_vector(where, f"motion.{key}", getattr(motion, key))
     if any(w < 0.0 for w in motion.angular_frequency):
         fail(where, "motion.angular_frequency", motion.angular_frequency, "must be ≥ 0")
 
@@ -392,13 +243,13 @@ def _check_dynamic(where: str, scenario: Scenario) -> None:
     """The other vehicles and how a fleet flies (docs/dynamic.md);
     `world.validation` checks where the vehicles are."""
     for i, other in enumerate(scenario.other_vehicles):
-        _check_vector(where, f"other_vehicles[{i}].start", other.start)
+        check_vector(where, f"other_vehicles[{i}].start", other.start)
         _check_goal(where, f"other_vehicles[{i}].goal", other.goal)
     if scenario.other_vehicles and scenario.faults != Faults():
         fail(
             where, "other_vehicles", scenario.other_vehicles, "are flown without faults"
         )
-    _check_positive(where, "exchange_hz", scenario.exchange_hz)
+    check_positive(where, "exchange_hz", scenario.exchange_hz)
     if scenario.fleet_integration not in FLEET_INTEGRATIONS:
         fail(
             where,
@@ -426,10 +277,10 @@ def check_scenario(scenario: Scenario, where: str) -> None:
     geometry, naming `where`."""
     if not scenario.name:
         fail(where, "name", scenario.name, "must not be empty")
-    _check_vector(where, "start", scenario.start)
+    check_vector(where, "start", scenario.start)
     _check_goal(where, "goal", scenario.goal)
-    _check_positive(where, "duration", scenario.duration)
-    _check_positive(where, "goal_tolerance", scenario.goal_tolerance)
+    check_positive(where, "duration", scenario.duration)
+    check_positive(where, "goal_tolerance", scenario.goal_tolerance)
     check_navigation_fields(scenario, where)
     _check_world(where, scenario)
 
@@ -440,15 +291,7 @@ def check_navigation_fields(scenario: object, where: str) -> None:
     ground, relative velocity."""
     for name, value, reason in vehicle_field_problems(scenario.vehicle):
         fail(where, name, value, reason)
-    if isinstance(scenario.sensor, SphereSensor):
-        _check_positive(where, "sensor.radius", scenario.sensor.radius)
-    elif isinstance(scenario.sensor, Cameras):
-        _check_cameras(where, scenario.sensor)
-    else:
-        fail(where, "sensor", scenario.sensor, "unknown sensor")
-    readings = scenario.sensor.readings
-    if isinstance(readings, bool) or not isinstance(readings, int) or readings < 1:
-        fail(where, "sensor.readings", readings, "must be an integer >= 1")
+    check_sensor(where, scenario.sensor)
     for key in ("navigator", "mfi_paper"):
         for name, value, reason in validate_params(getattr(scenario, key)):
             fail(where, f"{key}.{name}", value, reason)
@@ -459,41 +302,41 @@ def check_navigation_fields(scenario: object, where: str) -> None:
     for name, value, reason in field_problems(scenario.escape):
         fail(where, f"escape.{name}", value, reason)
     for name, value in scenario.field_gains.items():
-        if not _is_number(value) or not math.isfinite(value):
+        if not is_number(value) or not math.isfinite(value):
             fail(where, f"field_gains.{name}", value, "must be a finite number")
     for name, value, reason in fault_problems(scenario.faults):
         fail(where, f"faults.{name}", value, reason)
     if scenario.ground is not None:
         height = scenario.ground.height
-        if not _is_number(height) or not math.isfinite(height):
+        if not is_number(height) or not math.isfinite(height):
             fail(where, "ground.height", height, "must be a finite number")
     estimate = scenario.relative_velocity
-    _check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
-    _check_positive(where, "relative_velocity.gate", estimate.gate)
+    check_positive(where, "relative_velocity.rate_hz", estimate.rate_hz)
+    check_positive(where, "relative_velocity.gate", estimate.gate)
     tau = estimate.time_constant
-    if not _is_number(tau) or not math.isfinite(tau) or tau < 0.0:
+    if not is_number(tau) or not math.isfinite(tau) or tau < 0.0:
         fail(where, "relative_velocity.time_constant", tau, "must be a number ≥ 0")
     turn = estimate.keep_right
-    if not _is_number(turn) or not 0.0 <= turn < 90.0:
+    if not is_number(turn) or not 0.0 <= turn < 90.0:
         fail(where, "relative_velocity.keep_right", turn, "must be in [0, 90) degrees")
 
 
 def _check_world(where: str, scenario: Scenario) -> None:
     sim = scenario.simulator
-    _check_positive(where, "simulator.accuracy", sim.accuracy)
-    _check_positive(where, "simulator.max_step_size", sim.max_step_size)
+    check_positive(where, "simulator.accuracy", sim.accuracy)
+    check_positive(where, "simulator.max_step_size", sim.max_step_size)
     for i, obstacle in enumerate(scenario.obstacles):
         at = f"{where}: obstacles[{i}]"
         _check_shape(at, obstacle.shape)
-        _check_vector(at, "position", obstacle.position)
-        _check_vector(at, "rpy_deg", obstacle.rpy_deg)
+        check_vector(at, "position", obstacle.position)
+        check_vector(at, "rpy_deg", obstacle.rpy_deg)
         if obstacle.motion is not None:
             _check_motion(at, obstacle.motion)
         if not obstacle.name.isprintable():  # errors quote it in their one line
             fail(at, "name", obstacle.name, "must be one line of printable text")
     _check_dynamic(where, scenario)
-    _check_vector(where, "world_pose.position", scenario.world_pose.position)
-    _check_vector(where, "world_pose.rpy_deg", scenario.world_pose.rpy_deg)
+    check_vector(where, "world_pose.position", scenario.world_pose.position)
+    check_vector(where, "world_pose.rpy_deg", scenario.world_pose.rpy_deg)
     model_paths, pose = scenario.model_paths, scenario.world_pose
     for name, value, reason in world_problems(scenario.world, pose, model_paths):
         fail(where, name, value, reason)
@@ -504,7 +347,7 @@ def _check_map(where: str, scenario: Scenario) -> None:
     """A point-cloud map is the whole world, read by the sphere sensor
     alone (`systems.point_map`): no cameras (a cloud has no surfaces to
     render), no obstacles, ground or other vehicles beside it."""
-    _check_positive(where, "map_voxel", scenario.map_voxel)
+    check_positive(where, "map_voxel", scenario.map_voxel)
     try:  # at once (a map holds many points); point by point to name one
         points = np.asarray(scenario.map_points, dtype=float).reshape(-1, 3)
         whole = len(points) == len(scenario.map_points)
@@ -512,7 +355,7 @@ def _check_map(where: str, scenario: Scenario) -> None:
         whole = False
     if not (whole and np.isfinite(points).all()):
         for i, point in enumerate(scenario.map_points):
-            _check_vector(where, f"map_points[{i}]", point)
+            check_vector(where, f"map_points[{i}]", point)
     if not (scenario.map_points or scenario.world.lower().endswith(MAP_SUFFIXES)):
         return
     value = scenario.world or f"{len(scenario.map_points)} map_points"
@@ -527,7 +370,3 @@ def _check_map(where: str, scenario: Scenario) -> None:
     for what, given in beside.items():
         if given:
             fail(where, "world", value, f"a point-cloud map flies with no {what}")
-
-
-def _is_number(x) -> bool:
-    return isinstance(x, int | float) and not isinstance(x, bool)

@@ -17,11 +17,11 @@ import typing
 import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
+from mfi_drake.config.checks import is_number
 from mfi_drake.config.faults import Faults, fault_problems
 from mfi_drake.config.scenario import (
     Scenario,
     ScenarioError,
-    _is_number,  # shared with check_scenario's checks
     check_scenario,
     fail,
 )
@@ -79,7 +79,7 @@ def _check_drake_keys(data, schema, where: str, name: str) -> None:
 def _check_value(value, hint, where: str, name: str) -> None:
     origin = typing.get_origin(hint)
     if hint is float:
-        if not _is_number(value):
+        if not is_number(value):
             fail(where, name, value, "must be a number")
     elif hint is int:
         if not isinstance(value, int) or isinstance(value, bool):

@@ -28,7 +28,8 @@ from pydrake.systems.primitives import LogVectorOutput, Multiplexer, VectorLogSi
 
 from mfi_drake.config.faults import Faults
 from mfi_drake.config.navigation import NavigationConfig, check_navigation
-from mfi_drake.config.scenario import Cameras, Sensor, SphereSensor
+from mfi_drake.config.scenario import Sensor, SphereSensor
+from mfi_drake.config.sensors import Cameras
 from mfi_drake.config.vehicles import Vehicle, as_vehicle
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths.layout import (

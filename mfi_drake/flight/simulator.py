@@ -9,7 +9,8 @@ from typing import NamedTuple
 
 from pydrake.systems.analysis import Simulator, SimulatorStatus
 
-from mfi_drake.config.scenario import Cameras, Scenario
+from mfi_drake.config.scenario import Scenario
+from mfi_drake.config.sensors import Cameras
 from mfi_drake.flight.builder import apply_simulator_config, place_quadrotor
 from mfi_drake.flight.diagram import FlightDiagram
 from mfi_drake.flight.monitors import (

@@ -70,6 +70,10 @@ How the memory steers MFI's fields (the subgoal, the corner brake, eq
 module for the compiled engine: one
 source, so its functions take no optional tuples, generators or
 `min(key=)`, and the ground is a float (`NO_GROUND` for none) inside.
+
+(Over 500 lines: the rule's cases above, each measured in
+docs/nonconvex.md, until one escape core with typed state replaces them,
+issue 50.)
 """
 
 import math

@@ -62,8 +62,9 @@ from typing import NamedTuple
 import numpy as np
 
 from mfi_drake.config.dynamic import moves
-from mfi_drake.config.scenario import DepthCamera, Scenario, SphereSensor
+from mfi_drake.config.scenario import Scenario, SphereSensor
 from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
+from mfi_drake.config.sensors import DepthCamera
 from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.files import write_json, write_text
 from mfi_drake.flight.fleet import check_engine, on_compiled

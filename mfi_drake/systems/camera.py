@@ -42,13 +42,14 @@ from pydrake.perception import DepthImageToPointCloud, PointCloud
 from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
 from pydrake.systems.sensors import CameraInfo, ImageDepth32F, RgbdSensor
 
-from mfi_drake.config.scenario import (
+from mfi_drake.config.sensors import (
     MIN_DEPTH,
     CameraImage,
     Cameras,
     DepthCamera,
     Gimbal,
 )
+from mfi_drake.maths.gimbal import gimbal_rotation, point_gimbal
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     POSITION,
@@ -62,9 +63,7 @@ from mfi_drake.maths.perception import (
     Percept,
     Thinning,
     View,
-    gimbal_rotation,
     perceive,
-    point_gimbal,
 )
 from mfi_drake.systems.gimbal import GimbalPose
 
@@ -187,7 +186,7 @@ class DepthCameraSensor(LeafSystem):
     gimbal's frame, and this system points it: "gimbal_angles" (pan, tilt)
     [rad], from (0, 0), looking along world +x; each frame, after the images
     are placed, it turns them toward the estimated velocity
-    (`perception.point_gimbal`), at most `gimbal.rate_deg_s` / rate_hz a
+    (`maths.gimbal.point_gimbal`), at most `gimbal.rate_deg_s` / rate_hz a
     frame. Without one the mount is the body.
     """
 

@@ -6,7 +6,7 @@ perception commands (`camera.DepthCameraSensor`, output "gimbal_angles").
     DepthCameraSensor ──gimbal_angles──┘                (frame "gimbal")
 
 The gimbal is stabilised in the world: its frame G sits at a fixed point of
-the body and has the orientation `perception.gimbal_rotation(pan, tilt)`,
+the body and has the orientation `maths.gimbal.gimbal_rotation(pan, tilt)`,
 whatever the body's attitude (an ideal stabiliser; the slew-rate limit is in
 the commanded angles).
 """
@@ -17,7 +17,7 @@ from pydrake.geometry import FrameId, FramePoseVector, GeometryFrame, SceneGraph
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
-from mfi_drake.maths.perception import gimbal_rotation
+from mfi_drake.maths.gimbal import gimbal_rotation
 
 
 class GimbalPose(LeafSystem):

@@ -1,11 +1,15 @@
 """The files a world names: XML read with each element's line (for errors
 that name it), and the folders `model://`, `package://` and Fuel URIs
-name, found as Gazebo and ROS find them (`sdformat` resolves with these)."""
+name, found as Gazebo and ROS find them (`sdformat` resolves with these),
+and `Prepared`, what `sdformat.prepare` makes of a world file for Drake."""
 
 import os
 import re
 import xml.etree.ElementTree as ET
 import xml.parsers.expat
+from bisect import bisect_right
+from collections import Counter
+from dataclasses import dataclass, field
 from urllib.parse import unquote
 
 MODEL_ENV = ("GAZEBO_MODEL_PATH", "GZ_SIM_RESOURCE_PATH", "IGN_GAZEBO_RESOURCE_PATH")
@@ -156,3 +160,52 @@ def model_file(folder: str, where: str) -> str:
 
 def _version(text: str) -> tuple[int, ...]:
     return tuple(int(x) for x in re.findall(r"\d+", text))
+
+
+_SHOWN = "plugin light actor sensor visual gui heightmap population"
+SHOWN = tuple(_SHOWN.split())  # in the one line (the last two: geometry not read)
+
+
+@dataclass
+class Prepared:
+    """A world file rewritten for Drake: `texts` in format `kind` ("sdf",
+    "urdf"), each parsed apart (a world's models in parts: Drake's parse
+    time grows as their number squared), the collision meshes and planes
+    its placeholders number, what was read past, and where each element of
+    each text came from."""
+
+    texts: list[str] = field(default_factory=list)
+    kind: str = "sdf"
+    # Each placeholder's mesh: its file, scale and the "file:line" naming it;
+    # each plane's: its normal (in its collision's frame) and "file:line".
+    meshes: list[tuple[str, list[float], str]] = field(default_factory=list)
+    planes: list[tuple[list[float], str]] = field(default_factory=list)
+    # Each mesh's convex pieces once decomposed, by `decomposition.mesh_key`
+    # (`world_files` fills it).
+    pieces: dict = field(default_factory=dict)
+    read_past: Counter = field(default_factory=Counter)
+    stand_ins: Counter = field(default_factory=Counter)  # Fuel models, by name
+    unknown: Counter = field(default_factory=Counter)
+    starts: list[list[int]] = field(default_factory=list)  # each element's line
+    sources: list[list[str]] = field(default_factory=list)  # its "file:line"
+
+    def source(self, part: int, line: int) -> str:
+        """The "file:line" of what is on line `line` of `texts[part]`."""
+        k = bisect_right(self.starts[part], line) - 1
+        return self.sources[part][max(k, 0)]
+
+    def summary(self) -> str:
+        """What was read past, in one line ("" for nothing worth saying)."""
+        counts = [(k, self.read_past[k]) for k in SHOWN if self.read_past[k]]
+        said = ", ".join(f"{n} {k}{'s' if n > 1 else ''}" for k, n in counts)
+        if self.unknown:
+            names = ", ".join(f"{k} ({n}×)" for k, n in sorted(self.unknown.items()))
+            said += ("; " if said else "") + f"what SDFormat does not define: {names}"
+        said = f"read past {said}" if said else ""
+        if self.stand_ins:
+            names = ", ".join(repr(k) for k in sorted(self.stand_ins))
+            said += (
+                f"{'; ' if said else ''}Fuel's {names} not downloaded: "
+                "mfi_drake's stand-in read (Gazebo's shape)"
+            )
+        return said

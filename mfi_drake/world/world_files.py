@@ -44,8 +44,9 @@ from mfi_drake.world.decomposition import (
     prefetch_pieces,
     with_meshes,
 )
+from mfi_drake.world.model_files import Prepared
 from mfi_drake.world.point_clouds import with_map
-from mfi_drake.world.sdformat import MARK, Prepared, prepare
+from mfi_drake.world.sdformat import MARK, prepare
 
 WORLD_SUFFIXES = (".sdf", ".world", ".urdf", ".xml", ".mjcf")
 # Decimals of a degree that a pose's roll, pitch and yaw are read to: the
