@@ -38,11 +38,8 @@ own sphere would be its nearest obstacle. Seen through SceneGraph, the
 other vehicles are moving geometry: their velocities are estimated from
 the readings, as any moving obstacle's, the rule of the road (which
 readings are vehicles) is lost, and `mfi`'s escape rule is off among
-moving geometry (`chain.navigator_of`). Every path flies
-`mfi-memoryless`: with "mfi", `add_navigation`'s diagram among moving
-geometry raises at Initialize ("'EscapeNavigator' object has no attribute
-'field'": `navigator_of`'s `relative_navigator` factory builds the escape
-navigator it has just turned off).
+moving geometry (`config.navigation.NavigationConfig.moving_obstacles`).
+Every path flies `mfi-memoryless`, which is what `mfi` flies there.
 
 --profile N: cProfile of (c)'s flight at N vehicles (with --paths d,
 (d)'s), the 20 costliest functions by own time, and the systems' calcs by
@@ -75,6 +72,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
 
+from mfi_drake.config.navigation import navigation_config
 from mfi_drake.config.scenario import Scenario
 from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.flight.builder import (
@@ -146,9 +144,9 @@ def add_vehicle(builder, scene_graph, scenario: Scenario, plant, sphere, k: int)
         ignore=(sphere.frame_id,),
     )
     rotors = add_rotor_path(builder, vehicle, plant.get_input_port(0), True)
-    controller = add_controller(
-        builder, scenario, state, sensor, rotors, method=METHOD, moving=True
-    )
+    # Seen through SceneGraph the other vehicles are moving obstacles.
+    config = replace(navigation_config(scenario, METHOD), moving_obstacles=True)
+    controller = add_controller(builder, config, state, sensor, rotors, method=METHOD)
     logger = add_logger(builder, state, sensor, controller)
     for system in builder.GetSystems():
         if id(system) not in before:
