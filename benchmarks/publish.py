@@ -51,6 +51,8 @@ PAGES = [
 RESULTS = "docs/results"
 FLEETS = ("fleet_4", "fleet_8", "fleet_16_one", "fleet_8_methods")  # the fleet sweeps
 NONCONVEX = "nonconvex_4343"  # the held-out sweep of the generated worlds
+# The benchmark-world classes (`sweep --world KIND`), each a set of its own.
+BENCHMARK_WORLDS = ("clutter", "floorplan")
 NOT_REACHED = ("collision", "timeout", "trapped")  # its outcomes counted
 DENSITIES = ("0.05", "0.1", "0.2")
 # Row labels of the methods, as the tables name them.
@@ -342,6 +344,32 @@ def nonconvex_table(root: str) -> str:
             + [joined(num(c["median_path_ratio"]) for c in cells)]
             + [num(stats["median_convergence_time"], 1)]
         )
+    return table(header, rows)
+
+
+def benchmark_worlds_table(root: str) -> str:
+    """`sweep --world clutter` and `--world floorplan` (sets
+    benchmark_worlds/KIND): one row a method, its flights' outcomes counted
+    in each class. Before a set is flown, the command that flies it."""
+    header, cells = ["method"], {}
+    for kind in BENCHMARK_WORLDS:
+        path = os.path.join("benchmark_worlds", kind)
+        if not os.path.exists(os.path.join(root, RESULTS, path, "summary.json")):
+            return f"Not flown yet: `python benchmarks/publish.py --only {path}`."
+        result = summary(root, path)
+        config = result["config"]
+        header += [
+            f"{kind} (seed {config['seed']}, {config['n']} worlds): "
+            "success / collision / time-out / trapped",
+            f"{kind}: median path ratio",
+        ]
+        for method, stats in result["methods"].items():
+            c = stats["by_world"][kind]
+            counts = [count(c, "success")] + [count(c, o) for o in NOT_REACHED]
+            cells.setdefault(method, []).extend(
+                [joined(str(n) for n in counts), num(c["median_path_ratio"])]
+            )
+    rows = [[appearance(method)[0], *row] for method, row in cells.items()]
     return table(header, rows)
 
 
@@ -658,6 +686,7 @@ TABLES: dict[str, Callable[[str], str]] = {
     "fleet": fleet_tables,
     "readme_field": readme_field_table,
     "nonconvex": nonconvex_table,
+    "benchmark_worlds": benchmark_worlds_table,
     "stale": stale_table,
 }
 
