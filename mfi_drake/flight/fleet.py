@@ -96,7 +96,7 @@ COMPILED_FIELDS = (
 def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
     """Why `scenario` cannot be flown by `method` on the compiled engine (a
     sentence naming the field or method), or None where it can: MFI's field
-    and eq 21 selector (mfi, mfi-paper; mfi-nc's escape rule, a memory a
+    and eq 21 selector (mfi, mfi-paper; mfi's escape rule, a memory a
     vehicle), APF's or GF's field and attraction, or a user's field numba
     compiles (`uncompiled_field`); the sphere sensor,
     moving obstacles (where `methods.escape_off` turns the escape rule
@@ -120,8 +120,8 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         and (mfi or isinstance(selector, PotentialGoalAttraction))
     ):
         return (
-            f"method {method.name}: the compiled chain flies the fields of "
-            "mfi, mfi-paper, mfi-nc, apf and gf, and users' fields numba compiles"
+            f"method {method.name}: the compiled chain flies the fields of mfi, "
+            "mfi-memoryless, mfi-paper, apf and gf, and users' fields numba compiles"
         )
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
@@ -198,7 +198,7 @@ def check_engine(scenario: Scenario, methods: list) -> None:
     (`flies_compiled`: a fleet on one integrator, or `engine: compiled`)
     and a method of `methods` cannot be flown so (`unsupported`). A fleet's
     navigators are built first on either engine, so that what a method
-    refuses in a fleet (mfi-nc's, `methods`) is refused before anything
+    refuses in a fleet (mfi's, `methods`) is refused before anything
     flies."""
     for method in methods if scenario.other_vehicles else ():
         method_systems(scenario, resolve_method(method))
@@ -252,7 +252,7 @@ def chain_system(
         estimate.own_pace,
         PACE_BLEND_SPEED,
         scene,
-        getattr(navigator, "rule", None),  # mfi-nc's escape rule
+        getattr(navigator, "rule", None),  # mfi's escape rule
         getattr(navigator, "ground", None),
         relative,
         user,

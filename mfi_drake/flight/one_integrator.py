@@ -108,7 +108,7 @@ def fly_one_integrator(
         )
         for k, flown in enumerate(fleet_diagram.flown)
     ]
-    if ended_trapped(status):  # mfi-nc's escape rule: whose memory ended it
+    if ended_trapped(status):  # mfi's escape rule: whose memory ended it
         chain = fleet_diagram.chain
         trapped = chain.trapped(chain.GetMyContextFromRoot(context))
         for flight, each in zip(flights, trapped, strict=True):

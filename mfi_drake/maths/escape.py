@@ -1,4 +1,4 @@
-"""The escape rule of MFI in non-convex worlds (method "mfi-nc",
+"""The escape rule of MFI in non-convex worlds (the default "mfi",
 docs/nonconvex.md), as plain numpy functions on a fixed-size memory.
 
 MFI's goal attraction (eq 16–18) pulls the vehicle back into a cup or a

@@ -88,7 +88,7 @@ def fleet_chain(
     (N = 1) reads the static scene with its own velocity, as the
     single-vehicle navigator does (`superposed`; `flight.chain.navigator_of`
     takes the relative field only where something else moves). `rule`:
-    the escape rule's parameters (mfi-nc; None: none), which aims the
+    the escape rule's parameters (mfi; None: none), which aims the
     field at the subgoal of vehicle k's memory `memories[k]`, read with
     the corner gain `rate` above the ground at height `ground` from the
     scene's readings `scene[k]` alone (`escape_steering.escape_terms`, in a fleet
@@ -121,7 +121,7 @@ def fleet_chain(
             elif rule is None:
                 A, B = superposed(field, v, obstacle, goal - p, radius, params)
                 F_o, terms = A + B, np.concatenate((A, B))
-            else:  # mfi-nc: MFI's field aimed at the escape rule's subgoal
+            else:  # mfi: MFI's field aimed at the escape rule's subgoal
                 A, B, _ = escape_terms(
                     field,
                     memories[k],
@@ -155,7 +155,7 @@ def fleet_chain(
                     own_pace,
                     blend_speed,
                 )
-            else:  # mfi-nc: the memory reads the scene, the field every reading
+            else:  # mfi: the memory reads the scene, the field every reading
                 F_o, terms, _ = relative_escape_terms(
                     field,
                     memories[k],

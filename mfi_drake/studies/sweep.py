@@ -26,7 +26,7 @@ those flown).
 
 Outcomes: success (reached and no collision), collision (clearance < 0 at
 any logged step, reached or not), timeout (neither: stuck or too slow within
-the scenario's duration), trapped (neither, ended by mfi-nc's escape rule
+the scenario's duration), trapped (neither, ended by mfi's escape rule
 out of options), error (the simulation raised; message recorded).
 Path ratio = flown path length / reference path length, over successful
 flights only. Rates carry 95 % Wilson intervals; the median path ratio a

@@ -8,7 +8,7 @@
 (`maths.compiled`), for every vehicle in one call: the per-call cost of a
 Python system is paid once for the fleet, not once per vehicle and system.
 Eq 21's modes are its discrete state, one a vehicle, updated at the start
-of every integrator step (`fleet_modes`); for mfi-nc the escape rule's
+of every integrator step (`fleet_modes`); for mfi the escape rule's
 memory of each vehicle follows them in the same vector, updated then too
 from that vehicle's readings of the static scene alone, in one compiled
 call (`escape.fleet_memories`, as `EscapeNavigator` does one vehicle's),
@@ -76,7 +76,7 @@ class FleetChain(LeafSystem):
     `fields.obstacle_field` and eq 21's `fields.goal_terms`, or a
     baseline's field and `baselines.attraction_terms`) and their
     parameters; `attitude`: the attitude PD's (the scenario's `navigator`).
-    `rule`: the escape rule's parameters (mfi-nc: a memory a vehicle, which
+    `rule`: the escape rule's parameters (mfi: a memory a vehicle, which
     reads "scene" alone), `ground`: the ground's height it reads (None:
     none). `user`: a user's field's navigator, whose F_n the chain flies
     (`UserForces`; `attract` is then `fleet.no_goal_terms`).
@@ -196,7 +196,7 @@ class FleetChain(LeafSystem):
                 "obstacle_velocity", VELOCITY_SIGNAL_SIZE * n
             )
             tickets.add(self._velocity.ticket())
-        # The one discrete state group: the modes, then the memories (mfi-nc).
+        # The one discrete state group: the modes, then the memories (mfi).
         self._modes = self.DeclareDiscreteState(
             np.concatenate(
                 (np.full(n, float(MODE_PD)), np.zeros(n * self._memory_size))
