@@ -30,9 +30,7 @@ how far the vehicle farthest from where (a) left it ended.
 
 What `add_navigation` lacks for (c), so that `add_vehicle` below builds
 its pieces (`chain.add_sensor`, `add_controller`, `add_logger`) itself:
-a second call on one builder adds systems of the same names ("sensor",
-"navigator", ..., "logger"), and Drake's Build() aborts the process
-("Non-unique name"); and a QuadrotorPlant vehicle has no geometry of its
+a QuadrotorPlant vehicle has no geometry of its
 own that its sensor would ignore (only a MultibodyPlant body's is), so its
 own sphere would be its nearest obstacle. Seen through SceneGraph, the
 other vehicles are moving geometry: their velocities are estimated from

@@ -363,3 +363,29 @@ def test_a_multibody_vehicle_in_the_yard_flies_the_quadrotors_path():
     )
     assert flight.metrics["outcome"] == "success"
     assert np.abs(p - q).max() < 1e-3
+
+
+def test_two_vehicles_on_one_builder_are_named_apart_and_fly():
+    """Two add_navigation calls on one builder: the second vehicle's systems
+    are "vehicle_1/NAME" (Drake's Build() stopped the process on the
+    repeated names), a third's "vehicle_2/NAME", and each vehicle reaches
+    its own goal past the user's box (QuadrotorPlant vehicles have no
+    geometry: they do not read each other)."""
+    builder = DiagramBuilder()
+    scene_graph = anchored_box(builder)
+    goals = ([8.0, 0.0, 1.5], [8.0, 3.0, 1.5], [8.0, -3.0, 1.5])
+    fleet = []
+    for goal in goals:
+        quadrotor = builder.AddSystem(QuadrotorPlant())
+        fleet.append(add_navigation(builder, quadrotor, scene_graph, goal=goal))
+    names = [handles.navigator.get_name() for handles in fleet]
+    assert names == ["navigator", "vehicle_1/navigator", "vehicle_2/navigator"]
+    simulator = Simulator(builder.Build())
+    apply_simulator_config(default_simulator_config(), simulator)
+    context = simulator.get_mutable_context()
+    for handles, goal in zip(fleet, goals, strict=True):
+        handles.set_start(context, [0.0, goal[1], 1.5])
+    simulator.AdvanceTo(20.0)
+    for handles, goal in zip(fleet, goals, strict=True):
+        _, log = handles.read_log(context)
+        assert np.linalg.norm(log["state"][-1, :3] - goal) < 0.1

@@ -164,6 +164,7 @@ def add_navigation(
     keywords = {"goal": goal, "vehicle": vehicle, "sensor": sensor}
     keywords |= {"navigator": navigator, "faults": faults}
     config, resolved = _checked_config(config, method, keywords)
+    before = {id(system) for system in builder.GetSystems()}
     rig = _vehicle(builder, plant, body, scene_graph, config)
     config = replace(config, vehicle=rig.vehicle)
     if check_goal:
@@ -186,11 +187,13 @@ def add_navigation(
     controller = add_controller(
         builder, config, rig.state, sensor, rig.rotor_command, method=resolved
     )
+    logger = add_logger(builder, rig.state, sensor, controller)
+    _named_apart(builder, before)
     return NavigationHandles(
         **vars(controller),
         config=config,
         sensor=sensor,
-        logger=add_logger(builder, rig.state, sensor, controller),
+        logger=logger,
         state=rig.state,
         rotor_command=rig.rotor_command,
         vehicle=rig.vehicle,
@@ -198,6 +201,23 @@ def add_navigation(
         ignored=rig.ignored,
         place=rig.place,
     )
+
+
+def _named_apart(builder: DiagramBuilder, before: set[int]) -> None:
+    """The systems `add_navigation` added (those not in `before`, by id)
+    renamed "vehicle_K/NAME", K = 1, 2, ..., where a vehicle's systems
+    already hold their names: Drake's Build() refuses two systems of one
+    name, so a second vehicle on one builder would stop the process. The
+    first vehicle's keep their plain names."""
+    taken = {s.get_name() for s in builder.GetSystems() if id(s) in before}
+    added = [s for s in builder.GetSystems() if id(s) not in before]
+    if not any(s.get_name() in taken for s in added):
+        return
+    k = 1
+    while any(name.startswith(f"vehicle_{k}/") for name in taken):
+        k += 1
+    for system in added:
+        system.set_name(f"vehicle_{k}/{system.get_name()}")
 
 
 def _checked_config(
