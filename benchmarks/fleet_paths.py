@@ -83,6 +83,7 @@ from mfi_drake.flight.chain import (
     add_logger,
     add_sensor,
     log_slices,
+    named_apart,
     own_geometry,
 )
 from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
@@ -126,9 +127,10 @@ class VehicleSphere(LeafSystem):
         output.get_mutable_value().set_value(self.frame_id, RigidTransform(p))
 
 
-def add_vehicle(builder, scene_graph, scenario: Scenario, plant, sphere, k: int):
-    """`add_navigation`'s chain for vehicle k (its sensor ignoring its own
-    sphere), every system it adds renamed "v{k}_NAME"; returns its logger."""
+def add_vehicle(builder, scene_graph, scenario: Scenario, plant, sphere):
+    """`add_navigation`'s chain for a vehicle (its sensor ignoring its own
+    sphere), its systems named apart from the others' (`named_apart`);
+    returns its logger."""
     before = set(map(id, builder.GetSystems()))
     vehicle = as_vehicle(scenario.vehicle)
     state = plant.get_output_port(0)
@@ -146,9 +148,7 @@ def add_vehicle(builder, scene_graph, scenario: Scenario, plant, sphere, k: int)
     config = replace(navigation_config(scenario, METHOD), moving_obstacles=True)
     controller = add_controller(builder, config, state, sensor, rotors, method=METHOD)
     logger = add_logger(builder, state, sensor, controller)
-    for system in builder.GetSystems():
-        if id(system) not in before:
-            system.set_name(f"v{k}_{system.get_name()}")
+    named_apart(builder, before)
     return logger
 
 
@@ -182,10 +182,10 @@ def overhead(n: int, systems: int) -> float:
     return 1e6 * cpu / simulator.get_integrator().get_num_derivative_evaluations() / n
 
 
-def add_compiled_vehicle(builder, scene_graph, scenario, plant, sphere, k: int):
-    """(d)'s vehicle k: its sphere sensor (ignoring its own sphere) and the
-    compiled chain of one vehicle, every system renamed "v{k}_NAME";
-    returns the logger of the chain's row."""
+def add_compiled_vehicle(builder, scene_graph, scenario, plant, sphere):
+    """(d)'s vehicle: its sphere sensor (ignoring its own sphere) and the
+    compiled chain of one vehicle, its systems named apart from the
+    others' (`named_apart`); returns the logger of the chain's row."""
     before = set(map(id, builder.GetSystems()))
     method = resolve_method(METHOD)
     vehicle = as_vehicle(scenario.vehicle)
@@ -215,9 +215,7 @@ def add_compiled_vehicle(builder, scene_graph, scenario, plant, sphere, k: int):
         add_rotor_path(builder, vehicle, plant.get_input_port(0), True),
     )
     logger = LogVectorOutput(chain.GetOutputPort("rows"), builder, 0.0)
-    for system in builder.GetSystems():
-        if id(system) not in before:
-            system.set_name(f"v{k}_{system.get_name()}")
+    named_apart(builder, before)
     return logger
 
 
@@ -245,8 +243,8 @@ def fly_drake_diagram(fleet: Scenario, compiled: bool, profile: bool = False):
         spheres.append(sphere)
     add = add_compiled_vehicle if compiled else add_vehicle
     loggers = [
-        add(builder, scene_graph, s, p, q, k)
-        for k, (s, p, q) in enumerate(zip(flown, plants, spheres, strict=True))
+        add(builder, scene_graph, s, p, q)
+        for s, p, q in zip(flown, plants, spheres, strict=True)
     ]
     simulator = Simulator(builder.Build())
     apply_simulator_config(fleet.simulator, simulator)

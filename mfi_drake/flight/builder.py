@@ -50,6 +50,7 @@ from mfi_drake.flight.chain import (
     add_logger,
     add_sensor,
     log_slices,
+    named_apart,
     own_geometry,
     readings_of,
 )
@@ -188,7 +189,7 @@ def add_navigation(
         builder, config, rig.state, sensor, rig.rotor_command, method=resolved
     )
     logger = add_logger(builder, rig.state, sensor, controller)
-    _named_apart(builder, before)
+    named_apart(builder, before)
     return NavigationHandles(
         **vars(controller),
         config=config,
@@ -201,23 +202,6 @@ def add_navigation(
         ignored=rig.ignored,
         place=rig.place,
     )
-
-
-def _named_apart(builder: DiagramBuilder, before: set[int]) -> None:
-    """The systems `add_navigation` added (those not in `before`, by id)
-    renamed "vehicle_K/NAME", K = 1, 2, ..., where a vehicle's systems
-    already hold their names: Drake's Build() refuses two systems of one
-    name, so a second vehicle on one builder would stop the process. The
-    first vehicle's keep their plain names."""
-    taken = {s.get_name() for s in builder.GetSystems() if id(s) in before}
-    added = [s for s in builder.GetSystems() if id(s) not in before]
-    if not any(s.get_name() in taken for s in added):
-        return
-    k = 1
-    while any(name.startswith(f"vehicle_{k}/") for name in taken):
-        k += 1
-    for system in added:
-        system.set_name(f"vehicle_{k}/{system.get_name()}")
 
 
 def _checked_config(

@@ -256,6 +256,23 @@ def _fleet_readings(
     return readings
 
 
+def named_apart(builder: DiagramBuilder, before: set[int]) -> None:
+    """The systems added to `builder` since `before` (the ids of those it
+    held) renamed "vehicle_K/NAME", K = 1, 2, ..., where one of them holds
+    a name already taken (a second vehicle's chain): Drake's Build()
+    refuses two systems of one name, and would stop the process. The first
+    vehicle's keep their plain names."""
+    taken = {s.get_name() for s in builder.GetSystems() if id(s) in before}
+    added = [s for s in builder.GetSystems() if id(s) not in before]
+    if not any(s.get_name() in taken for s in added):
+        return
+    k = 1
+    while any(name.startswith(f"vehicle_{k}/") for name in taken):
+        k += 1
+    for system in added:
+        system.set_name(f"vehicle_{k}/{system.get_name()}")
+
+
 @dataclass
 class Controller:
     """The systems `add_controller` adds, and the port of the state
