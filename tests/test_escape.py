@@ -277,9 +277,10 @@ def test_a_passable_gap_is_no_corner():
 def test_the_memory_tells_a_plane_from_a_curved_surface(radius, plane):
     """A vehicle moving 5 cm along x, 1.0 m from a surface's closest point
     on +y: a wall's (radius inf) moves with it, a sphere's of radius ρ by
-    ρ/(ρ + 1.0) as much: a plane while that is at least EDGE_RATIO. A
-    surface seen anew is a plane until the motion tells (the brake's safe
-    side), and `plane_flags` finds a reading's flag by its point."""
+    ρ/(ρ + 1.0) as much: a plane while that is at least EDGE_RATIO, else
+    its radius measured (to the step's second order). A surface seen anew
+    is a plane until the motion tells (the brake's safe side), and
+    `plane_flags` finds a reading's flag by its point."""
     centre = np.array([0.0, 1.0 + radius, 0.0]) if np.isfinite(radius) else None
 
     def reading(p):
@@ -291,16 +292,17 @@ def test_the_memory_tells_a_plane_from_a_curved_surface(radius, plane):
     p0, p1 = np.zeros(3), np.array([0.05, 0.0, 0.0])
     memory = escape.initial_memory(p0, GOAL)
     memory = step(memory, 0.0, p0, obstacle=reading(p0))
-    assert memory[escape.PLANES][0] == 1.0
+    assert memory[escape.RADII][0] == np.inf
     memory = step(memory, 0.01, p1, obstacle=reading(p1))
-    assert memory[escape.PLANES][0] == plane
+    measured = memory[escape.RADII][0]
+    assert measured == (np.inf if plane else pytest.approx(radius, rel=0.01))
     assert escape.plane_flags(memory, p1, reading(p1), RADIUS, 2.0)[0] == plane
     assert (
         escape.plane_flags(memory, p1, reading(p1), RADIUS, 0.5)[0] == 1.0
     )  # beyond r_b
     # Standing still keeps what the motion told.
     memory = step(memory, 0.02, p1, obstacle=reading(p1))
-    assert memory[escape.PLANES][0] == plane
+    assert memory[escape.RADII][0] == measured
 
 
 def test_the_escape_section_of_a_scenario_is_checked_and_flown():

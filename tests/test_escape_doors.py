@@ -86,6 +86,90 @@ def test_no_door_at_a_face_a_narrow_gap_or_a_corner():
     assert escape.door(memory, corner, P, escape.E_Z, RADIUS) is None
 
 
+POST = 0.075  # m, a BARN post's radius
+
+
+def post_point(centre, p):
+    """The closest point to p of a vertical post (a circle in the plane
+    z = 1.5 of radius POST about `centre`)."""
+    n = (p - centre) / np.linalg.norm(p - centre)
+    return centre + POST * n
+
+
+def between_posts(spacing):
+    """A vehicle at P following post A (axis at the origin) along +x, post
+    B's axis `spacing` further along +x: the memory from the last step
+    (P − STEP) and the readings at P."""
+    a, b = np.array([0.0, 0.0, 1.5]), np.array([spacing, 0.0, 1.5])
+    before = P - STEP
+    memory = escape.initial_memory(before, GOAL)
+    memory[escape.PHASE] = escape.FOLLOW
+    memory[escape.D_HIT] = 0.1  # never leave
+    memory[escape.SURFACE] = post_point(a, before)
+    memory[escape.SURFACE_SEEN] = 1.0
+    memory[escape.LAST_P] = before
+    last = [post_point(a, before), post_point(b, before), [np.inf] * 3]
+    memory[escape.LAST_POINTS] = np.ravel(last)
+    seen = obstacle_signal([post_point(a, P) - P, post_point(b, P) - P])
+    return memory, seen
+
+
+def test_a_posts_radius_from_its_closest_points_motion():
+    """A round edge's closest point moves ρ/(ρ + d) times the vehicle's
+    motion across: `_edge_radius` recovers the post's 0.075 m from one
+    0.05 m step (to the step's second order), and a sharp jamb's 0."""
+    a = np.array([0.0, 0.0, 1.5])
+    rho = escape._edge_radius(post_point(a, P), post_point(a, P - STEP), P, P - STEP)
+    assert rho == pytest.approx(POST, rel=0.01)
+    assert escape._edge_radius(a, a, P, P - STEP) == 0.0
+    # A face (its closest point moved with the vehicle): a plane; no motion
+    # across: unknown.
+    assert escape._edge_radius(a, a - STEP, P, P - STEP) == np.inf
+    assert np.isnan(escape._edge_radius(a, a, P, P))
+
+
+def test_a_post_hides_the_goal_only_on_the_way_to_it():
+    """Leaving (3DBug's condition): a post of measured radius 0.075 m ahead
+    and 0.4 m beside the line to the goal hides nothing (its tangent plane
+    would hide the goal: the clutter failure), one 0.2 m beside it does
+    (0.075 + R = 0.3 m), and a wall's face, read as a plane, hides the
+    goal beyond its tangent plane."""
+    goal = P + [0.0, 4.0, 0.0]
+    for offset, hidden in ((0.4, False), (0.2, True)):
+        centre = P + [offset, 1.0, 0.0]
+        before = P - STEP
+        memory = escape.initial_memory(before, goal)
+        seen_before = obstacle_signal([post_point(centre, before) - before])
+        memory = escape.update_memory(
+            memory, 0.0, before, STEP, seen_before, goal, RADIUS, RULE
+        )
+        seen = obstacle_signal([post_point(centre, P) - P])
+        memory = escape.update_memory(memory, 0.01, P, STEP, seen, goal, RADIUS, RULE)
+        assert memory[escape.RADII][0] == pytest.approx(POST, rel=0.05)
+        assert escape.goal_hidden(memory, P, seen, goal - P, RADIUS) == hidden
+        # Read as a plane (seen anew), the post's tangent plane hides the goal.
+        fresh = escape.initial_memory(P, goal)
+        assert escape.goal_hidden(fresh, P, seen, goal - P, RADIUS)
+
+
+@pytest.mark.parametrize(("spacing", "door"), [(0.86, False), (1.0, True)])
+def test_the_gap_between_two_posts_is_measured_between_their_surfaces(spacing, door):
+    """Two posts whose closest points seen from the side lie more than
+    2R + GAP_MARGIN (0.75 m) apart, their surfaces 0.71 m apart: no door
+    (measured between the closest points, 0.80 m, it was one, and the
+    vehicle pressed into it in BARN). 0.85 m apart: a door, its middle
+    halfway between the axes, the way through ⟂ them (+y)."""
+    memory, seen = between_posts(spacing)
+    closest = np.linalg.norm(seen[4:7] - seen[0:3])
+    assert closest > 2 * RADIUS + escape.GAP_MARGIN
+    found = escape.door(memory, seen, P, escape.E_Z, RADIUS)
+    if not door:
+        assert found is None
+    else:
+        assert found[0] == pytest.approx([spacing / 2, 0.0, 1.5], abs=2e-3)
+        assert found[1] == pytest.approx([0.0, 1.0, 0.0], abs=2e-3)
+
+
 # (door width [m], the room's yaw [deg]): doors narrower than 2 (R + r_f) =
 # 1.34 m, met side-on. With the detector off (DOOR_WIDEST = 0) none of the
 # three reaches the goal in the 40 s (6.3, 0.17 and 3.9 m from it).

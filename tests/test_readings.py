@@ -96,7 +96,7 @@ def test_a_larger_memory_evolves_as_the_default_one_on_as_many_readings():
     fixed = slice(0, escape.FIXED_SIZE)
     np.testing.assert_array_equal(large[fixed], small[fixed])
     assert small[escape.PHASE] != escape.TOWARD  # the rule did act
-    for name, rows in (("_last_points", 3), ("_seen_points", 3), ("_planes", 1)):
+    for name, rows in (("_last_points", 3), ("_seen_points", 3), ("_radii", 1)):
         big, few = getattr(escape, name)(large), getattr(escape, name)(small)
         np.testing.assert_array_equal(big[:3], few)
         extra = np.ones(3) if rows == 1 else np.full((3, 3), np.inf)

@@ -106,15 +106,15 @@ DOOR_AXIS = slice(23, 26)  # the unit direction through it
 PASSED = slice(26, 29)  # the middle of the last gap passed (inf: none)
 RING_NEXT = 29  # the ring's next slot
 RING = RING_NEXT + 1  # HITS rows of [x, y, z, next axis]
-# Every phase's record of the seen readings for the corner brake
-# (`record_surfaces`): p, then (below) each reading's closest point (inf
-# where none) and whether the surface there is locally a plane (1) or
-# curved (0).
+# Every phase's record of the seen readings for the corner brake and the
+# leave condition (`record_surfaces`): p, then (below) each reading's
+# closest point (inf where none) and the surface's radius of curvature
+# there (inf: locally a plane).
 SEEN_P = slice(RING + 4 * HITS, RING + 4 * HITS + 3)
 FIXED_SIZE = SEEN_P.stop  # the records that do not grow with the count
 # Per reading of a sensor of c readings, after FIXED_SIZE: the followable
 # readings' closest points at the last step's update while following (3c,
-# inf where none: which stayed put), SEEN_POINTS (3c) and PLANES (c).
+# inf where none: which stayed put), SEEN_POINTS (3c) and RADII (c).
 PER_READING = 7
 
 
@@ -140,8 +140,8 @@ def _seen_points(memory):
     return memory[FIXED_SIZE + 3 * c : FIXED_SIZE + 6 * c].reshape(c, 3)
 
 
-def _planes(memory):
-    """PLANES of `memory`, (count,) a view."""
+def _radii(memory):
+    """RADII of `memory`, (count,) a view."""
     c = _count(memory)
     return memory[FIXED_SIZE + 6 * c : FIXED_SIZE + 7 * c]
 
@@ -149,7 +149,7 @@ def _planes(memory):
 # The per-reading records at the default count (tests and tools index them).
 LAST_POINTS = slice(FIXED_SIZE, FIXED_SIZE + 3 * OBSTACLE_COUNT)
 SEEN_POINTS = slice(LAST_POINTS.stop, LAST_POINTS.stop + 3 * OBSTACLE_COUNT)
-PLANES = slice(SEEN_POINTS.stop, SEEN_POINTS.stop + OBSTACLE_COUNT)
+RADII = slice(SEEN_POINTS.stop, SEEN_POINTS.stop + OBSTACLE_COUNT)
 MEMORY_SIZE = memory_size(OBSTACLE_COUNT)
 
 E_Z = np.array([0.0, 0.0, 1.0])
@@ -167,6 +167,9 @@ GAP_COSINE = -math.sqrt(0.5)
 EDGE_RATIO = 0.5
 GAP_MARGIN = 0.3  # m, beyond 2R: the door's clearance on both sides together
 DOOR_WIDEST = 2.0  # m; wider, rounding one jamb at r_f passes it (1.34 m)
+# A round edge (`goal_hidden`): a radius of curvature of at least 1 cm; a
+# box's corner measures 0 (to rounding), a BARN post 0.075 m.
+ROUND = 0.01
 PASS_AHEAD = 1.0  # m, the subgoal's lead along the line through the door
 PASS_BEYOND = 1.0  # m past the door's middle: through
 
@@ -207,7 +210,7 @@ def initial_memory(
     memory[PASSED] = np.inf
     memory[FIXED_SIZE : FIXED_SIZE + 6 * count] = np.inf  # last and seen points
     memory[SEEN_P] = p
-    _planes(memory)[:] = 1.0
+    _radii(memory)[:] = np.inf
     memory[RING : RING + 4 * HITS] = np.tile([np.inf, np.inf, np.inf, 0.0], HITS)
     return memory
 
@@ -334,26 +337,35 @@ def door(
 def _gap(memory, points: list, p, collision_radius) -> tuple:
     """`door`'s (middle, unit direction through) among the candidates
     `points` (`_candidates`), `_no_gap` where there is none (one type for
-    numba)."""
+    numba). The gap is measured between the two edges' rounded shapes
+    (`_edge_centre`), not between their closest points: two posts' closest
+    points lie up to 2ρ each further apart than their surfaces do."""
     if not memory[SURFACE_SEEN] or len(points) < 2:
         return _no_gap()
     kept = points[_kept(points, memory[SURFACE])][1]
-    if not _edge(kept, memory[SURFACE], p, memory[LAST_P]):
+    rho = _edge_radius(kept, memory[SURFACE], p, memory[LAST_P])
+    if not rho < math.inf:  # a face, or no motion across
         return _no_gap()
+    centre = _edge_centre(kept, rho, p)
     last = _last_points(memory)
     for _, other in points:
-        w = other - kept
-        gap = float(_norm(w))
-        middle = (kept + other) / 2
         before = last[np.argmin(_row_norms(last - other))]
+        rho_other = _edge_radius(other, before, p, memory[LAST_P])
+        if not rho_other < math.inf:
+            continue
+        w = _edge_centre(other, rho_other, p) - centre
+        between = float(_norm(w))
+        gap = between - rho - rho_other
+        if between < 1e-9:
+            continue
+        middle = centre + (rho + gap / 2) * w / between
         if (
             not 2 * collision_radius + GAP_MARGIN < gap < DOOR_WIDEST
             or _norm(middle - memory[PASSED]) < gap
-            or not _edge(other, before, p, memory[LAST_P])
         ):
             continue
         c = middle - p
-        through = c - (c @ w) * w / (gap * gap)
+        through = c - (c @ w) * w / (between * between)
         size = float(_norm(through))
         if size > 1e-6:
             return middle, through / size
@@ -365,22 +377,66 @@ def _no_gap() -> tuple:
     return np.zeros(3), np.zeros(3)
 
 
-def _edge(q: np.ndarray, before: np.ndarray, p: np.ndarray, p_before) -> bool:
-    """Whether the closest point q (`before` at the last step, p_before the
-    vehicle's position then) stayed put while the vehicle moved across
-    q − p: an edge (EDGE_RATIO)."""
-    n = (q - p) / _norm(q - p)
+def _edge_radius(q: np.ndarray, before: np.ndarray, p: np.ndarray, p_before) -> float:
+    """The radius of curvature ρ of the surface whose closest point q
+    (`before` at the last step, p_before the vehicle's position then) has
+    moved while the vehicle moved across q − p; inf for a face (locally a
+    plane), nan where the vehicle did not move across. Seen from distance
+    d, a round edge's closest point moves ρ/(ρ + d) times the vehicle's
+    motion across (the angle swept about its centre, times ρ), so
+    ρ = d μ/(1 − μ) from the measured ratio μ; a sharp edge (a jamb) is
+    ρ = 0. Below EDGE_RATIO (ρ < d) it is an edge; above, a face: a plane
+    at the scale of the vehicle's distance (a sphere of radius 1 m at
+    0.7 m moves 0.6 as much)."""
+    d = _norm(q - p)
+    n = (q - p) / d
     step = p - p_before
     along = _norm(step - (step @ n) * n)
-    return bool(along > 1e-6 and _norm(q - before) < EDGE_RATIO * along)
+    if not along > 1e-6:
+        return math.nan
+    mu = _norm(q - before) / along
+    if not mu < EDGE_RATIO:
+        return math.inf
+    return d * mu / (1.0 - mu)
 
 
-def goal_hidden(obstacle, r_g: np.ndarray) -> bool:
-    """Whether a seen surface's tangent plane at its closest point lies
-    between the vehicle and the goal: r_g·n > |r_o|."""
-    for r_o, seen in readings(obstacle):
+def _edge_centre(q: np.ndarray, rho: float, p: np.ndarray) -> np.ndarray:
+    """The centre of curvature of a round edge of radius ρ whose closest
+    point to p is q: ρ beyond q, away from p."""
+    return q + rho * (q - p) / _norm(q - p)
+
+
+def goal_hidden(
+    memory: np.ndarray,
+    p: np.ndarray,
+    obstacle,
+    r_g: np.ndarray,
+    collision_radius: float,
+) -> bool:
+    """Whether a seen surface lies between the vehicle at p and the goal
+    (r_g from p): 3DBug's leaving condition on the local range data. A
+    surface read as a plane (`record_surfaces`) hides the goal beyond its
+    tangent plane at the closest point, r_g·n > |r_o|; a round edge of
+    measured radius ρ (a post, a pillar: ρ ≥ `ROUND`) only where the
+    vehicle going straight to the goal would touch the disc of radius ρ
+    about its centre of curvature: the tangent plane of a 0.075 m post hides
+    half the world, and in clutter some post's always hid the goal. A
+    sharp edge (ρ < `ROUND`: a jamb, a box's corner) keeps its tangent
+    plane: the face it bounds is unseen."""
+    radii = _remembered_radii(memory, p, obstacle, math.inf)
+    d = _norm(r_g)
+    for i, (r_o, seen) in enumerate(readings(obstacle)):
         distance = _norm(r_o)
-        if seen > 0.5 and distance > 1e-9 and r_g @ r_o > distance * distance:
+        if seen < 0.5 or distance < 1e-9:
+            continue
+        rho = radii[i]
+        if not ROUND <= rho < math.inf:
+            if r_g @ r_o > distance * distance:
+                return True
+            continue
+        c = r_o * (1.0 + rho / distance)  # the centre of curvature, from p
+        along = min(max(c @ r_g / d, 0.0), d)
+        if _norm(c - along * r_g / d) < rho + collision_radius:
             return True
     return False
 
@@ -474,7 +530,8 @@ def update_memory(
         elif t - memory[T_BEST] > params.stall_time:
             memory[PHASE], memory[LAST_P] = FOLLOW, p
         return memory
-    if d < memory[D_HIT] - params.leave_margin and not goal_hidden(obstacle, r_g):
+    hidden = goal_hidden(memory, p, obstacle, r_g, collision_radius)
+    if d < memory[D_HIT] - params.leave_margin and not hidden:
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
     # The followable readings, once for the door, the record and the
@@ -515,23 +572,20 @@ def update_memory(
 
 
 def record_surfaces(memory: np.ndarray, p: np.ndarray, obstacle) -> None:
-    """Remember p and each seen reading's closest point q, and whether the
-    surface at q is locally a plane: its closest point moved at least
-    EDGE_RATIO times the vehicle's motion ⟂ q − p since the last update (a
-    plane's moves as much, a sphere's of radius ρ at distance d ρ/(ρ + d) as
-    much: a plane at the scale of the vehicle's distance while d < ρ). The
-    same surface is the remembered point within |Δp| of q (projection onto
-    a convex shape is non-expansive); a surface seen anew, or without
-    motion across it, is taken for a plane (the corner brake's safe side)
-    until the motion tells."""
+    """Remember p and each seen reading's closest point q, and the radius
+    of curvature of the surface there (`_edge_radius`: inf for a plane at
+    the scale of the vehicle's distance). The same surface is the
+    remembered point within |Δp| of q (projection onto a convex shape is
+    non-expansive); a surface seen anew is taken for a plane (the corner
+    brake's and the leave condition's safe side), and one without motion
+    across it keeps its radius, until the motion tells."""
     last = _seen_points(memory).copy()
-    flags = _planes(memory).copy()
+    old = _radii(memory).copy()
     moved = _norm(p - memory[SEEN_P])
     points = np.full((len(last), 3), np.inf)
-    planes = np.ones(len(last))
+    radii = np.full(len(last), np.inf)
     for i, (r_o, seen) in enumerate(readings(obstacle)):
-        distance = _norm(r_o)
-        if seen < 0.5 or distance < 1e-9:
+        if seen < 0.5 or _norm(r_o) < 1e-9:
             continue
         q = p + r_o
         points[i] = q
@@ -539,16 +593,11 @@ def record_surfaces(memory: np.ndarray, p: np.ndarray, obstacle) -> None:
         j = int(np.argmin(gaps))
         if not gaps[j] <= moved + 1e-9:
             continue
-        n = r_o / distance
-        step = p - memory[SEEN_P]
-        along = _norm(step - (step @ n) * n)
-        if along > 1e-6:
-            planes[i] = 1.0 if gaps[j] >= EDGE_RATIO * along else 0.0
-        else:
-            planes[i] = flags[j]
+        rho = _edge_radius(q, last[j], p, memory[SEEN_P])
+        radii[i] = old[j] if math.isnan(rho) else rho
     memory[SEEN_P] = p
     _seen_points(memory)[:] = points
-    _planes(memory)[:] = planes
+    _radii(memory)[:] = radii
 
 
 def plane_flags(
@@ -556,19 +605,27 @@ def plane_flags(
 ) -> np.ndarray:
     """For each seen reading of `obstacle` (vehicle at p) within eq 15's r_b
     (those the corner brake reads), whether its surface is locally a plane
-    by `record_surfaces`: the flag of the remembered point nearest its
-    closest point (1: a plane, where none is remembered, and for the
-    readings not asked about)."""
+    by `record_surfaces`: that of the remembered point nearest its closest
+    point (1: a plane, where none is remembered, and for the readings not
+    asked about)."""
+    radii = _remembered_radii(memory, p, obstacle, collision_radius + r_b)
+    return np.where(radii == np.inf, 1.0, 0.0)
+
+
+def _remembered_radii(memory: np.ndarray, p: np.ndarray, obstacle, within: float):
+    """Each seen reading's radius of curvature (`record_surfaces`) where its
+    closest point lies within `within` of p: the remembered point's nearest
+    it; inf (a plane) where none is remembered, and for the others."""
     last = _seen_points(memory)
-    flags = np.ones(len(last))
+    radii = np.full(len(last), np.inf)
     for i, (r_o, seen) in enumerate(readings(obstacle)):
-        if seen < 0.5 or not _norm(r_o) - collision_radius < r_b:
+        if seen < 0.5 or not _norm(r_o) < within:
             continue
         gaps = _row_norms(last - (p + r_o))
         j = int(np.argmin(gaps))
         if np.isfinite(gaps[j]):
-            flags[i] = _planes(memory)[j]
-    return flags
+            radii[i] = _radii(memory)[j]
+    return radii
 
 
 def _into_ground(memory, p, q, goal, ground) -> bool:
