@@ -19,6 +19,7 @@ from mfi_drake.world.validation import load_scenario
 
 from .conftest import SCENARIOS
 from .test_one_integrator import crowded_fleet, single_vehicle_rows
+from .test_user_compiled import as_tuple
 
 COUNT = 5  # more than the default 3
 # Six spheres about the line from the start to the goal: up to five readings
@@ -96,6 +97,18 @@ def test_faults_among_moving_obstacles_fly_five_readings_alike():
     systems = simulate(scenario, "gf")
     fast = simulate(dataclasses.replace(scenario, engine="compiled"), "gf")
     assert (fast.log["obstacle"][:, 3] > 0.5).any()  # a moving obstacle seen
+    np.testing.assert_array_equal(fast.times, systems.times)
+    for key, values in systems.log.items():
+        np.testing.assert_array_equal(fast.log[key], values, err_msg=key)
+
+
+def test_a_users_field_reads_five_readings_on_both_engines():
+    # as_tuple's F_n counts the obstacle points it is given: 4 or 5 here.
+    scenario = dataclasses.replace(cluster(), duration=6.0)
+    systems = simulate(scenario, as_tuple)
+    fast = simulate(dataclasses.replace(scenario, engine="compiled"), as_tuple)
+    assert fast.metrics["engine"] == "compiled"
+    assert fast.log["obstacle"][:, 3::READING_SIZE].sum(axis=1).max() > 3
     np.testing.assert_array_equal(fast.times, systems.times)
     for key, values in systems.log.items():
         np.testing.assert_array_equal(fast.log[key], values, err_msg=key)
