@@ -354,15 +354,10 @@ class OneIntegratorFleet:
         builder.Connect(estimate_port, chain.GetInputPort("states"))
         self.scene_sensor = None
         if scene:
-            self.scene_sensor = builder.AddNamedSystem(
-                "scene_sensor",
-                FleetSceneSensor(
-                    scenario.sensor.radius,
-                    n,
-                    bool(frames.frames),
-                    scenario.sensor.readings,
-                ),
+            sensor = FleetSceneSensor(
+                scenario.sensor.radius, n, bool(frames.frames), chain.readings
             )
+            self.scene_sensor = builder.AddNamedSystem("scene_sensor", sensor)
             builder.Connect(
                 scene_graph.get_query_output_port(),
                 self.scene_sensor.GetInputPort("query"),

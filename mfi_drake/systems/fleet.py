@@ -150,9 +150,7 @@ class FleetChain(LeafSystem):
         self._no_forces = np.zeros((0, 3))  # the method's field, no user's
         self._user = None
         if user is not None:
-            self._user = UserForces(
-                user, n, vehicle.collision_radius, sensor_radius, self.readings
-            )
+            self._user = UserForces(user, n, self._radius, sensor_radius, self.readings)
         self._chain = compiled.specialised(
             functions.fleet_chain,
             self._field,
