@@ -34,16 +34,6 @@ def test_a_count_below_one_or_not_an_integer_is_one_line_and_exit_2(
     assert "readings" in err and value in err.lower()
 
 
-def test_the_compiled_engine_refuses_a_count_it_does_not_fly(
-    write_yaml, tmp_path, capsys
-):
-    text = GOOD.replace("{radius: 2.5}", "{radius: 2.5, readings: 5}")
-    path = write_yaml(text + "engine: compiled\n")
-    assert main(["run", path, "--out", str(tmp_path / "out")]) == 2
-    err = capsys.readouterr().err.strip()
-    assert "\n" not in err and "sensor.readings" in err
-
-
 def test_every_port_and_the_escape_memory_follow_the_count():
     """A scenario of 5 readings: the sensor's output, the navigator's input,
     the log's "obstacle" columns are 20 long, the escape memory holds 5

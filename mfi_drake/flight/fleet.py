@@ -48,12 +48,7 @@ from mfi_drake.flight.builder import add_rotor_path
 from mfi_drake.flight.diagram import add_obstacles, make_plant, vehicle_scenarios
 from mfi_drake.flight.methods import Method, resolve_method
 from mfi_drake.maths import baselines, compiled, fields, fleet
-from mfi_drake.maths.layout import (
-    OBSTACLE_COUNT,
-    OBSTACLE_SIGNAL_SIZE,
-    ROTORS,
-    STATE_SIZE,
-)
+from mfi_drake.maths.layout import ROTORS, STATE_SIZE, signal_size
 from mfi_drake.maths.motion import PACE_BLEND_SPEED
 from mfi_drake.systems.escape import EscapeNavigator
 from mfi_drake.systems.faults import (
@@ -69,10 +64,7 @@ from mfi_drake.systems.navigation import (
     ObstacleNavigator,
     PotentialGoalAttraction,
 )
-from mfi_drake.systems.relative import (
-    VELOCITY_SIGNAL_SIZE,
-    ObstacleVelocityEstimator,
-)
+from mfi_drake.systems.relative import ObstacleVelocityEstimator
 from mfi_drake.systems.sensors import FleetSceneSensor
 from mfi_drake.systems.user_field import UserFieldNavigator
 
@@ -125,8 +117,6 @@ def unsupported(scenario: Scenario, method: "str | Method") -> str | None:
         )
     if not isinstance(scenario.sensor, SphereSensor):
         return "sensor: the compiled chain flies the sphere sensor only"
-    if scenario.sensor.readings != OBSTACLE_COUNT:
-        return f"sensor.readings: the compiled chain flies {OBSTACLE_COUNT} readings"
     if scenario.faults != Faults() and scenario.other_vehicles:
         return "faults: the compiled chain flies them for a lone vehicle only"
     if scenario.map_points:
@@ -256,6 +246,7 @@ def chain_system(
         getattr(navigator, "ground", None),
         relative,
         user,
+        scenario.sensor.readings,
     )
 
 
@@ -278,19 +269,20 @@ def add_velocity_estimators(
         builder.Connect(port, demux.get_input_port(0))
         return [demux.get_output_port(k) for k in range(n)]
 
+    count = chain.readings
     states = split(states_port, STATE_SIZE, "estimator_states")
-    scenes = split(scene_port, OBSTACLE_SIGNAL_SIZE, "estimator_scenes")
+    scenes = split(scene_port, signal_size(count), "estimator_scenes")
     target = chain.GetInputPort("obstacle_velocity")
     if n > 1:
         mux = builder.AddNamedSystem(
-            "obstacle_velocities", Multiplexer([VELOCITY_SIGNAL_SIZE] * n)
+            "obstacle_velocities", Multiplexer([3 * count] * n)
         )
         builder.Connect(mux.get_output_port(0), target)
     for k in range(n):
         estimator = builder.AddNamedSystem(
             "velocity_estimator" if n == 1 else f"velocity_estimator_{k}",
             ObstacleVelocityEstimator(
-                estimate.rate_hz, estimate.time_constant, estimate.gate
+                estimate.rate_hz, estimate.time_constant, estimate.gate, count
             ),
         )
         builder.Connect(states[k], estimator.GetInputPort("state"))
@@ -315,7 +307,7 @@ def true_rows(
     scene = scene_sensor is not None
     if not (estimate_faulted(faults) or (scene and readings_faulted(faults))):
         return rows
-    truth = builder.AddNamedSystem("true_rows", TrueRows(scene))
+    truth = builder.AddNamedSystem("true_rows", TrueRows(scene, chain.readings))
     builder.Connect(rows, truth.GetInputPort("rows"))
     builder.Connect(states.get_output_port(0), truth.GetInputPort("states"))
     if scene:
@@ -362,10 +354,10 @@ class OneIntegratorFleet:
         builder.Connect(estimate_port, chain.GetInputPort("states"))
         self.scene_sensor = None
         if scene:
-            self.scene_sensor = builder.AddNamedSystem(
-                "scene_sensor",
-                FleetSceneSensor(scenario.sensor.radius, n, bool(frames.frames)),
+            sensor = FleetSceneSensor(
+                scenario.sensor.radius, n, bool(frames.frames), chain.readings
             )
+            self.scene_sensor = builder.AddNamedSystem("scene_sensor", sensor)
             builder.Connect(
                 scene_graph.get_query_output_port(),
                 self.scene_sensor.GetInputPort("query"),

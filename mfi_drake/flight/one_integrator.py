@@ -24,8 +24,8 @@ from mfi_drake.flight.simulator import (
     ended_trapped,
     simulator_at_start,
 )
-from mfi_drake.maths.fleet import ROW_SIZE, row_slices
-from mfi_drake.maths.layout import OBSTACLE_SIGNAL_SIZE, POSITION, STATE_SIZE
+from mfi_drake.maths.fleet import row_size, row_slices
+from mfi_drake.maths.layout import POSITION, STATE_SIZE
 
 
 def one_integrator_monitor(
@@ -52,7 +52,7 @@ def one_integrator_monitor(
             if sensor is not None:
                 port = sensor.get_output_port(0)
                 scene = port.Eval(sensor.GetMyContextFromRoot(context))
-                for reading in scene.reshape(n, OBSTACLE_SIGNAL_SIZE):
+                for reading in scene.reshape(n, -1):
                     if in_contact(reading, radius):
                         return EventStatus.ReachedTermination(sensor, "in contact")
         if until_settled and clock.settled(context.get_time(), x):
@@ -91,8 +91,9 @@ def fly_one_integrator(
     integrator = simulator.get_integrator()
     log = fleet_diagram.logger.FindLog(context)
     times = log.sample_times().copy()
-    data = log.data().T.reshape(len(times), len(fleet_diagram.flown), ROW_SIZE)
-    slices = row_slices()
+    count = fleet_diagram.chain.readings  # the sensor's
+    data = log.data().T.reshape(len(times), len(fleet_diagram.flown), row_size(count))
+    slices = row_slices(count)
     flights = [
         Flight(
             scenario=flown,

@@ -17,32 +17,46 @@ from mfi_drake.maths.fields import MODE_CRUISE, next_mode, superposed
 from mfi_drake.maths.layout import (
     OBSTACLE_COUNT,
     POSITION,
+    STATE_SIZE,
     VELOCITY,
+    reading_count,
     seen_points,
+    signal_size,
     slices,
 )
 from mfi_drake.maths.motion import relative_field, vehicle_readings
 from mfi_drake.maths.quadcopter import attitude_command, mix
 
-# A vehicle's row of `fleet_chain`: what the single-vehicle diagram logs, in
-# its order (`flight.diagram.LOG_LAYOUT`).
-ROW = (
-    ("state", 12),
-    ("obstacle", 12),
-    ("obstacle_force_terms", 6),
-    ("goal_force_terms", 9),
-    ("navigation_force", 3),
-    ("mode", 1),
-    ("attitude_setpoint", 4),
-    ("propeller_force", 4),
-    ("saturation", 1),
-)
-ROW_SIZE = sum(size for _, size in ROW)
+
+def row_layout(readings: int = OBSTACLE_COUNT) -> tuple[tuple[str, int], ...]:
+    """A vehicle's row of `fleet_chain` for a sensor of `readings` readings:
+    what the single-vehicle diagram logs, in its order
+    (`flight.chain.log_layout`)."""
+    return (
+        ("state", STATE_SIZE),
+        ("obstacle", signal_size(readings)),
+        ("obstacle_force_terms", 6),
+        ("goal_force_terms", 9),
+        ("navigation_force", 3),
+        ("mode", 1),
+        ("attitude_setpoint", 4),
+        ("propeller_force", 4),
+        ("saturation", 1),
+    )
 
 
-def row_slices() -> dict[str, slice]:
-    """Where each entry of ROW lies in a row."""
-    return slices(ROW)
+def row_size(readings: int = OBSTACLE_COUNT) -> int:
+    """The length of a row of `row_layout(readings)`."""
+    return sum(size for _, size in row_layout(readings))
+
+
+def row_slices(readings: int = OBSTACLE_COUNT) -> dict[str, slice]:
+    """Where each entry of `row_layout(readings)` lies in a row."""
+    return slices(row_layout(readings))
+
+
+ROW = row_layout()  # at the default count
+ROW_SIZE = row_size()
 
 
 def fleet_chain(
@@ -72,7 +86,7 @@ def fleet_chain(
     forces: np.ndarray,
     rows: np.ndarray,
 ) -> None:
-    """Fills `rows` (N, ROW_SIZE) with each vehicle's ROW at the fleet's
+    """Fills `rows` (N, `row_size`) with each vehicle's row at the fleet's
     `states` (N, 12) under the obstacle field `field` of parameters
     `params` (`fields.obstacle_field` or a baseline's, or its compiled
     form). Vehicle k sees the scene's readings `scene[k]` and the others'
@@ -111,7 +125,7 @@ def fleet_chain(
                     x,
                     obstacle,
                     scene_velocities[k],
-                    np.zeros(OBSTACLE_COUNT),
+                    np.zeros(reading_count(obstacle)),  # no vehicle
                     goal,
                     radius,
                     params,
@@ -178,7 +192,7 @@ def fleet_chain(
         F_n = F_o + F_gc + F_v + F_pd
         thrust_torque, setpoint = attitude_command(x, F_n, vehicle, attitude, K_P, K_D)
         u_rotor, saturated = mix(thrust_torque, D_inv, vehicle.u_max)
-        # The row in ROW's order.
+        # The row in `row_layout`'s order.
         row, at = rows[k], 0
         for part in (x, obstacle, terms, F_gc, F_v, F_pd, F_n):
             at = _put(row, at, part)
@@ -221,7 +235,7 @@ def fleet_readings(
     reach: float,
     out: np.ndarray,
 ) -> None:
-    """Fills `out` (N, OBSTACLE_SIGNAL_SIZE) with each vehicle's readings
+    """Fills `out` (N, 4 readings) with each vehicle's readings
     (`readings_of`)."""
     for k in range(len(states)):
         out[k] = readings_of(k, states, scene, scene_velocities, radius, reach)

@@ -31,16 +31,16 @@ from mfi_drake.config.vehicles import Vehicle
 from mfi_drake.maths import compiled, escape, escape_steering, fields, fleet
 from mfi_drake.maths.fields import MODE_PD
 from mfi_drake.maths.layout import (
-    OBSTACLE_SIGNAL_SIZE,
+    OBSTACLE_COUNT,
     POSITION,
     ROTORS,
     STATE_SIZE,
+    signal_size,
 )
 from mfi_drake.maths.quadcopter import attitude_gains, mixer_matrix
 from mfi_drake.systems.escape import TRAPPED_MESSAGE
 from mfi_drake.systems.last_result import LastResult
 from mfi_drake.systems.navigation import mode_witnesses
-from mfi_drake.systems.relative import VELOCITY_SIGNAL_SIZE
 from mfi_drake.systems.user_field import UserFieldError, UserFieldNavigator, call_field
 
 
@@ -61,15 +61,15 @@ class FleetChain(LeafSystem):
         - rows
 
     "states": the N plants' states, stacked (12 N); "scene": each vehicle's
-    sphere-sensor readings of the scene, stacked (12 N; only with `scene`,
-    else nothing); "obstacle_velocity": each vehicle's estimate of each of
-    its scene readings' obstacle velocity, stacked
-    (`relative.VELOCITY_SIGNAL_SIZE` a vehicle,
-    `relative.ObstacleVelocityEstimator`'s; only with `moving`, where the
-    chain flies the relative field, `maths.motion.relative_field`, as
-    `relative.RelativeNavigator` does); "rotor_forces": u of every vehicle
-    (4 N); "rows": each vehicle's `maths.fleet.ROW`, what a single-vehicle
-    diagram logs (ROW_SIZE N).
+    sphere-sensor readings of the scene, stacked (4 `readings` N; only
+    with `scene`, else nothing); "obstacle_velocity": each vehicle's
+    estimate of each of its scene readings' obstacle velocity, stacked (3
+    `readings` a vehicle, `relative.ObstacleVelocityEstimator`'s; only
+    with `moving`, where the chain flies the relative field,
+    `maths.motion.relative_field`, as `relative.RelativeNavigator` does);
+    "rotor_forces": u of every vehicle (4 N); "rows": each vehicle's
+    `maths.fleet.row_layout`, what a single-vehicle diagram logs
+    (`row_size` N).
 
     `field`, `attract`, `params`: the method's obstacle field and goal part
     (functions of modules `maths.compiled` compiles: MFI's
@@ -79,7 +79,9 @@ class FleetChain(LeafSystem):
     `rule`: the escape rule's parameters (mfi: a memory a vehicle, which
     reads "scene" alone), `ground`: the ground's height it reads (None:
     none). `user`: a user's field's navigator, whose F_n the chain flies
-    (`UserForces`; `attract` is then `fleet.no_goal_terms`).
+    (`UserForces`; `attract` is then `fleet.no_goal_terms`). `readings`:
+    the sensor's count, which sizes the ports, rows and memories (the
+    compiled functions take any: one compilation serves every count).
     """
 
     def __init__(
@@ -99,10 +101,13 @@ class FleetChain(LeafSystem):
         ground: float | None = None,
         moving: bool = False,
         user: UserFieldNavigator | None = None,
+        readings: int = OBSTACLE_COUNT,
     ):
         super().__init__()
         self._goals = np.array(goals, float)
         n = len(self._goals)
+        self.readings = int(readings)  # the sensor's count
+        signal, velocity = signal_size(self.readings), 3 * self.readings
         K_P, K_D = attitude_gains(vehicle, attitude)
         # Copies of the parameters, in the compiled functions' form.
         self._constants = (
@@ -130,21 +135,22 @@ class FleetChain(LeafSystem):
                 params.K_v / vehicle.mass, params.v_d, params.r_b
             )
         self._escape = (self._rule, rate, self._ground)
-        self._memory_size = 0 if rule is None else escape.MEMORY_SIZE
+        self._memory_size = 0 if rule is None else escape.memory_size(self.readings)
         self._radius = vehicle.collision_radius
-        self._forces = fleet.row_slices()["propeller_force"]
+        self._row_size = fleet.row_size(self.readings)
+        self._forces = fleet.row_slices(self.readings)["propeller_force"]
         # Compiled here, not within the flight: each function's entry for
         # the types every later call passes (`compiled.specialised`).
         functions = compiled.compiled(fleet)
         self._field = compiled.compiled_form(field)
         at_rest = np.zeros((n, STATE_SIZE))
-        self._no_scene = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
-        self._no_velocity = np.zeros((n, VELOCITY_SIGNAL_SIZE))  # no estimate
+        self._no_scene = np.zeros((n, signal))
+        self._no_velocity = np.zeros((n, velocity))  # no estimate
         self._moving = bool(moving)
         self._no_forces = np.zeros((0, 3))  # the method's field, no user's
         self._user = None
         if user is not None:
-            self._user = UserForces(user, n, vehicle.collision_radius, sensor_radius)
+            self._user = UserForces(user, n, self._radius, sensor_radius, self.readings)
         self._chain = compiled.specialised(
             functions.fleet_chain,
             self._field,
@@ -158,12 +164,12 @@ class FleetChain(LeafSystem):
             np.zeros((n, self._memory_size)),
             *self._escape,
             self._no_forces,
-            np.zeros((n, fleet.ROW_SIZE)),
+            np.zeros((n, self._row_size)),
         )
         if rule is not None:
             self._update_memories = compiled.specialised(
                 compiled.compiled(escape).fleet_memories,
-                np.zeros((n, escape.MEMORY_SIZE)),
+                np.zeros((n, self._memory_size)),
                 0.0,
                 at_rest,
                 self._no_scene,
@@ -188,12 +194,12 @@ class FleetChain(LeafSystem):
         tickets = {self._states.ticket()}
         self._scene = None
         if scene:
-            self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE * n)
+            self._scene = self.DeclareVectorInputPort("scene", signal * n)
             tickets.add(self._scene.ticket())
         self._velocity = None
         if moving:
             self._velocity = self.DeclareVectorInputPort(
-                "obstacle_velocity", VELOCITY_SIGNAL_SIZE * n
+                "obstacle_velocity", velocity * n
             )
             tickets.add(self._velocity.ticket())
         # The one discrete state group: the modes, then the memories (mfi).
@@ -225,7 +231,7 @@ class FleetChain(LeafSystem):
         )
         self.DeclareVectorOutputPort(
             "rows",
-            fleet.ROW_SIZE * n,
+            self._row_size * n,
             lambda context, out: out.SetFromVector(self._rows(context)[0].ravel()),
             prerequisites_of_calc=tickets,
         )
@@ -238,7 +244,7 @@ class FleetChain(LeafSystem):
             n = len(states)
             new[n:] = np.concatenate(
                 [
-                    escape.initial_memory(x[POSITION], goal)
+                    escape.initial_memory(x[POSITION], goal, self.readings)
                     for x, goal in zip(states, self._goals, strict=True)
                 ]
             )
@@ -255,7 +261,7 @@ class FleetChain(LeafSystem):
             if self._scene is not None:
                 scene = np.array(self._scene.Eval(context)).reshape(n, -1)
             new[n:] = self._update_memories(
-                new[n:].reshape(n, escape.MEMORY_SIZE),
+                new[n:].reshape(n, self._memory_size),
                 context.get_time(),
                 states,
                 scene,
@@ -270,7 +276,7 @@ class FleetChain(LeafSystem):
         return EventStatus.Succeeded()
 
     def memories(self, context) -> np.ndarray:
-        """The escape rule's memories in `context` (N, MEMORY_SIZE; N × 0
+        """The escape rule's memories in `context` (N, `escape.memory_size`; N × 0
         without the rule)."""
         discrete = context.get_discrete_state_vector().CopyToVector()
         n = len(self._goals)
@@ -285,7 +291,7 @@ class FleetChain(LeafSystem):
         n = len(self._goals)
         if self._rule is None:
             return [False] * n
-        phases = discrete[n:].reshape(n, escape.MEMORY_SIZE)[:, escape.PHASE]
+        phases = discrete[n:].reshape(n, self._memory_size)[:, escape.PHASE]
         return [bool(phase == escape.TRAPPED) for phase in phases]
 
     def _with_modes(self, context) -> tuple[np.ndarray, np.ndarray]:
@@ -310,7 +316,7 @@ class FleetChain(LeafSystem):
         return [self._witness[round(mode)]]
 
     def _rows(self, context) -> tuple[np.ndarray, np.ndarray]:
-        """(rows (N, ROW_SIZE), the rotor forces (4 N)), computed once for
+        """(rows (N, `row_size`), the rotor forces (4 N)), computed once for
         both outputs."""
         # Copies: the compiled entries take writable C-contiguous arrays.
         states = np.array(self._states.Eval(context))
@@ -329,10 +335,10 @@ class FleetChain(LeafSystem):
 
     def _evaluate(self, states, scene, u, discrete, time: float):
         n = len(self._goals)
-        rows = np.empty((n, fleet.ROW_SIZE))
+        rows = np.empty((n, self._row_size))
         states = states.reshape(n, STATE_SIZE)
-        scene = np.array(scene).reshape(n, OBSTACLE_SIGNAL_SIZE)
-        u = np.array(u).reshape(n, VELOCITY_SIGNAL_SIZE)
+        scene = np.array(scene).reshape(n, signal_size(self.readings))
+        u = np.array(u).reshape(n, 3 * self.readings)
         forces = self._no_forces
         if self._user is not None:
             forces = self._user(states, scene, u, self._goals, time)
@@ -359,7 +365,8 @@ class UserForces:
     fleet's states, readings of the scene and goals, each vehicle's F_n
     (`maths.fleet.user_forces`). Raises UserFieldError as `systems` does
     (`call_field` says it, at the vehicle that failed); what numba raises
-    where it cannot compile the field, on construction."""
+    where it cannot compile the field, on construction. `readings`: the
+    sensor's count."""
 
     def __init__(
         self,
@@ -367,18 +374,20 @@ class UserForces:
         n: int,
         radius: float,
         sensor_radius: float,
+        readings: int = OBSTACLE_COUNT,
     ):
         self._field, self._name = navigator.field, navigator.field_name
         self._gains = dict(navigator.gains)
         self._values = tuple(float(value) for value in self._gains.values())
         self._radius, self._reach = float(radius), float(sensor_radius)
         at_rest = np.zeros((n, STATE_SIZE))
-        readings = np.zeros((n, OBSTACLE_SIGNAL_SIZE))
+        count = int(readings)
+        readings = np.zeros((n, signal_size(count)))
         self._readings = compiled.specialised(
             compiled.compiled(fleet).fleet_readings,
             at_rest,
             readings,
-            np.zeros((n, VELOCITY_SIGNAL_SIZE)),
+            np.zeros((n, 3 * count)),
             self._radius,
             self._reach,
             readings,
@@ -435,7 +444,7 @@ class TrueRows(LeafSystem):
     what its faults made of them (the compiled engine with faults: the
     chain reads the state estimate and the faulted readings, the log keeps
     the truth, as the card's diagram logs the plant's state and the
-    sensor's output).
+    sensor's output; `readings`: the sensor's count).
 
     .. pydrake_system::
 
@@ -448,15 +457,16 @@ class TrueRows(LeafSystem):
         - rows
     """
 
-    def __init__(self, scene: bool):
+    def __init__(self, scene: bool, readings: int = OBSTACLE_COUNT):
         super().__init__()
-        self._rows = self.DeclareVectorInputPort("rows", fleet.ROW_SIZE)
+        size = fleet.row_size(readings)
+        self._rows = self.DeclareVectorInputPort("rows", size)
         self._states = self.DeclareVectorInputPort("states", STATE_SIZE)
         self._scene = None
         if scene:
-            self._scene = self.DeclareVectorInputPort("scene", OBSTACLE_SIGNAL_SIZE)
-        self._slices = fleet.row_slices()
-        self.DeclareVectorOutputPort("rows", fleet.ROW_SIZE, self._calc)
+            self._scene = self.DeclareVectorInputPort("scene", signal_size(readings))
+        self._slices = fleet.row_slices(readings)
+        self.DeclareVectorOutputPort("rows", size, self._calc)
 
     def _calc(self, context, output) -> None:
         row = np.array(self._rows.Eval(context))
