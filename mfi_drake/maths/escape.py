@@ -339,7 +339,9 @@ def _gap(memory, points: list, p, collision_radius) -> tuple:
     `points` (`_candidates`), `_no_gap` where there is none (one type for
     numba). The gap is measured between the two edges' rounded shapes
     (`_edge_centre`), not between their closest points: two posts' closest
-    points lie up to 2ρ each further apart than their surfaces do."""
+    points lie up to 2ρ each further apart than their surfaces do; the way
+    through is still ⟂ the closest points, through their middle (a radius
+    measured across a face's corner would move a centre, never them)."""
     if not memory[SURFACE_SEEN] or len(points) < 2:
         return _no_gap()
     kept = points[_kept(points, memory[SURFACE])][1]
@@ -353,19 +355,18 @@ def _gap(memory, points: list, p, collision_radius) -> tuple:
         rho_other = _edge_radius(other, before, p, memory[LAST_P])
         if not rho_other < math.inf:
             continue
-        w = _edge_centre(other, rho_other, p) - centre
-        between = float(_norm(w))
-        gap = between - rho - rho_other
-        if between < 1e-9:
-            continue
-        middle = centre + (rho + gap / 2) * w / between
+        gap = float(_norm(_edge_centre(other, rho_other, p) - centre))
+        gap -= rho + rho_other
+        w = other - kept
+        span = float(_norm(w))
+        middle = (kept + other) / 2
         if (
             not 2 * collision_radius + GAP_MARGIN < gap < DOOR_WIDEST
             or _norm(middle - memory[PASSED]) < gap
         ):
             continue
         c = middle - p
-        through = c - (c @ w) * w / (between * between)
+        through = c - (c @ w) * w / (span * span)
         size = float(_norm(through))
         if size > 1e-6:
             return middle, through / size
@@ -661,8 +662,8 @@ def fleet_memories(
     ground: float,
 ) -> np.ndarray:
     """Every vehicle's `update_memory` at time t (states (N, 12), its
-    static scene's readings scene (N, 12), goals (N, 3)): each memory
-    (row of `memories`, (N, MEMORY_SIZE)) reads its own scene only, not
+    static scene's readings scene (N, 4 count), goals (N, 3)): each memory
+    (row of `memories`, (N, memory_size(count))) reads its own scene only, not
     the other vehicles. A new array; one compiled call for a fleet."""
     out = np.empty_like(memories)
     for k in range(len(states)):

@@ -1,7 +1,7 @@
 """`EscapeNavigator`: MFI with the escape rule of `maths.escape` and the
 memory it builds in flight, for method "mfi" (docs/nonconvex.md).
 
-The memory is the system's one discrete state group (`escape.MEMORY_SIZE`
+The memory is the system's one discrete state group (`escape.memory_size(count)`
 floats), set at initialization and updated by a per-step discrete
 update event: a flight is deterministic and replayable, and the event
 forces no step boundaries, so until the first trap (or concave corner,
