@@ -362,7 +362,7 @@ def _gap(memory, points: list, p, collision_radius) -> tuple:
         middle = (kept + other) / 2
         if (
             not 2 * collision_radius + GAP_MARGIN < gap < DOOR_WIDEST
-            or _norm(middle - memory[PASSED]) < gap
+            or _norm(middle - memory[PASSED]) < span
         ):
             continue
         c = middle - p
@@ -386,25 +386,53 @@ def _edge_radius(q: np.ndarray, before: np.ndarray, p: np.ndarray, p_before) -> 
     d, a round edge's closest point moves ρ/(ρ + d) times the vehicle's
     motion across (the angle swept about its centre, times ρ), so
     ρ = d μ/(1 − μ) from the measured ratio μ; a sharp edge (a jamb) is
-    ρ = 0. Below EDGE_RATIO (ρ < d) it is an edge; above, a face: a plane
-    at the scale of the vehicle's distance (a sphere of radius 1 m at
-    0.7 m moves 0.6 as much)."""
+    ρ = 0. Below EDGE_RATIO it is an edge; above, a face: a plane at the
+    scale of the vehicle's distance (a sphere of radius 1 m at 0.7 m moves
+    0.6 as much).
+
+    An edge's radius is measured in the horizontal plane (`_across`): the
+    closest point slides along an edge's line with the vehicle (a jamb's
+    with the vehicle's climb), and the edges a traversal about ±e_z goes
+    round (posts, pillars, jambs) stand upright. Where the horizontal
+    motion cannot tell, or `before` does not lie on the circle the estimate
+    describes (the point jumped from a face to its corner within the step),
+    the edge counts as sharp: ρ = 0, the safe side of the door's gap and of
+    the leave condition."""
     d = _norm(q - p)
     n = (q - p) / d
     step = p - p_before
     along = _norm(step - (step @ n) * n)
     if not along > 1e-6:
         return math.nan
-    mu = _norm(q - before) / along
-    if not mu < EDGE_RATIO:
+    if not _norm(q - before) < EDGE_RATIO * along:
         return math.inf
-    return d * mu / (1.0 - mu)
+    n_h = _across(q - p)
+    d_h = _norm(n_h)
+    if not d_h > 0.5 * d:  # read from above or below
+        return 0.0
+    n_h = n_h / d_h
+    step_h = _across(step)
+    along_h = _norm(step_h - (step_h @ n_h) * n_h)
+    mu = _norm(_across(q - before)) / along_h if along_h > 1e-6 else 1.0
+    if not mu < EDGE_RATIO:
+        return 0.0
+    rho = d_h * mu / (1.0 - mu)
+    if abs(_norm(_across(before - _edge_centre(q, rho, p))) - rho) > 0.1 * rho + 1e-3:
+        return 0.0
+    return rho
+
+
+def _across(x: np.ndarray) -> np.ndarray:
+    """x's horizontal part (⟂ e_z)."""
+    return np.array([x[0], x[1], 0.0])
 
 
 def _edge_centre(q: np.ndarray, rho: float, p: np.ndarray) -> np.ndarray:
-    """The centre of curvature of a round edge of radius ρ whose closest
-    point to p is q: ρ beyond q, away from p."""
-    return q + rho * (q - p) / _norm(q - p)
+    """The axis of a round upright edge of radius ρ whose closest point to
+    p is q, at q's height: ρ beyond q horizontally, away from p."""
+    n_h = _across(q - p)
+    size = _norm(n_h)
+    return q + rho * n_h / size if size > 0.0 else q
 
 
 def goal_hidden(
@@ -420,12 +448,11 @@ def goal_hidden(
     tangent plane at the closest point, r_g·n > |r_o|; a round edge of
     measured radius ρ (a post, a pillar: ρ ≥ `ROUND`) only where the
     vehicle going straight to the goal would touch the disc of radius ρ
-    about its centre of curvature: the tangent plane of a 0.075 m post hides
+    about its axis (horizontally): the tangent plane of a 0.075 m post hides
     half the world, and in clutter some post's always hid the goal. A
     sharp edge (ρ < `ROUND`: a jamb, a box's corner) keeps its tangent
     plane: the face it bounds is unseen."""
     radii = _remembered_radii(memory, p, obstacle, math.inf)
-    d = _norm(r_g)
     for i, (r_o, seen) in enumerate(readings(obstacle)):
         distance = _norm(r_o)
         if seen < 0.5 or distance < 1e-9:
@@ -435,9 +462,16 @@ def goal_hidden(
             if r_g @ r_o > distance * distance:
                 return True
             continue
-        c = r_o * (1.0 + rho / distance)  # the centre of curvature, from p
-        along = min(max(c @ r_g / d, 0.0), d)
-        if _norm(c - along * r_g / d) < rho + collision_radius:
+        # An upright post: the horizontal way to the goal against its axis.
+        c = _across(_edge_centre(p + r_o, rho, p) - p)
+        way = _across(r_g)
+        length = _norm(way)
+        if not length > 1e-9:
+            if r_g @ r_o > distance * distance:
+                return True
+            continue
+        along = min(max(c @ way / length, 0.0), length)
+        if _norm(c - along * way / length) < rho + collision_radius:
             return True
     return False
 
