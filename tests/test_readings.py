@@ -67,7 +67,7 @@ def test_every_port_and_the_escape_memory_follow_the_count():
 def test_a_larger_memory_evolves_as_the_default_one_on_as_many_readings():
     """The count only resizes the escape memory: fed the same two readings,
     a memory of 6 readings keeps every record a memory of 3 keeps, its
-    extra rows untouched (inf, or 1 for the plane flags)."""
+    extra rows untouched (inf: no point, a plane's radius)."""
     p, goal = np.array([0.0, 0.0, 1.0]), np.array([5.0, 0.0, 1.0])
     small = escape.initial_memory(p, goal)
     large = escape.initial_memory(p, goal, 6)
@@ -89,8 +89,7 @@ def test_a_larger_memory_evolves_as_the_default_one_on_as_many_readings():
     for name, rows in (("_last_points", 3), ("_seen_points", 3), ("_radii", 1)):
         big, few = getattr(escape, name)(large), getattr(escape, name)(small)
         np.testing.assert_array_equal(big[:3], few)
-        extra = np.ones(3) if rows == 1 else np.full((3, 3), np.inf)
-        np.testing.assert_array_equal(big[3:], extra)
+        np.testing.assert_array_equal(big[3:], np.full((3, rows), np.inf).squeeze())
 
 
 # A 1 m slab as BARN's (benchmarks/barn.py): the floor's top 0.45 m below
