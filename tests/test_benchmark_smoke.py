@@ -14,7 +14,7 @@ OVERRIDE = os.path.join(ROOT, "tests", "data", "gains_override.yaml")
 def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     page = tmp_path / "performance.md"
     page.write_text("# P\n<!-- BEGIN throughput -->\nold\n<!-- END throughput -->\n")
-    argv = ["--duration", "2.0", "--repeats", "1", "--split", "1", "--fields", "2"]
+    argv = ["--duration", "2.0", "--repeats", "1", "--split", "1", "--fields", "1"]
     argv += ["--compare", "1", "--scenarios", "sharp_*.yaml"]
     argv += ["--override", OVERRIDE]
     result = load_benchmark("throughput").main(argv + ["--page", str(page)])

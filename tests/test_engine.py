@@ -192,12 +192,19 @@ def test_a_new_process_loads_the_compiled_chain_from_the_cache(wall):
 def test_processes_starting_together_compile_a_function_once(tmp_path):
     """Two processes specialise the same function at the same moment in an
     empty cache: the lock makes one compile it and the other load what it
-    wrote (invariant: one miss in all; numba alone compiles in each)."""
+    wrote (invariant: one miss in all; numba alone compiles in each). A
+    chain's lock, whose types hold a compiled field, is the same file in
+    both (named by the field, not by its address in the process), and
+    another field's is another."""
     script = (
         "import sys, time\n"
         "import numpy as np\n"
-        "from mfi_drake.maths import compiled, so3\n"
+        "from mfi_drake.maths import baselines, compiled, fields, fleet, so3\n"
         "function = compiled.compiled(so3).rotation_from_reference\n"
+        "chain = compiled.compiled(fleet).fleet_chain\n"
+        "for field in (fields.obstacle_field, baselines.gf_obstacle_field):\n"
+        "    kind = chain.typeof_pyval(compiled.compiled_form(field))\n"
+        "    print(compiled._lock_path(chain, (kind,)))\n"
         "time.sleep(max(0.0, float(sys.argv[1]) - time.time()))\n"
         "compiled.specialised(function, np.ones(3), np.array([0.0, 1.0, 0.0]))\n"
         "print(sum(function.stats.cache_misses.values()))\n"
@@ -214,8 +221,10 @@ def test_processes_starting_together_compile_a_function_once(tmp_path):
         )
         for _ in range(2)
     ]
-    misses = [int(run.communicate(timeout=120)[0].split()[-1]) for run in runs]
-    assert sorted(misses) == [0, 1]
+    outs = [run.communicate(timeout=120)[0].split() for run in runs]
+    assert sorted(int(out[-1]) for out in outs) == [0, 1]
+    mfi, gf = outs[0][:2]
+    assert outs[1][:2] == [mfi, gf] and mfi != gf
 
 
 def test_the_cache_falls_back_to_the_user_directory_where_the_package_is_read_only(

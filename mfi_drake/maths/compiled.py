@@ -404,8 +404,7 @@ def _compile_lock(function, kinds: tuple):
     on one machine) then compile each chain once, the others load what the
     first wrote (numba alone would compile it in each; ~27 s a chain).
     Without a writable cache directory, no lock."""
-    name = hashlib.sha256(repr((function.py_func.__name__, kinds)).encode())
-    path = os.path.join(function.stats.cache_path, f"{name.hexdigest()[:16]}.lock")
+    path = _lock_path(function, kinds)
     with contextlib.ExitStack() as held:
         try:
             os.makedirs(os.path.dirname(path), exist_ok=True)
@@ -415,6 +414,25 @@ def _compile_lock(function, kinds: tuple):
         if lock is not None:
             fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
         yield
+
+
+def _lock_path(function, kinds: tuple) -> str:
+    """`_compile_lock`'s file for `function`'s entry of types `kinds`, named
+    as every process names it: a compiled function among the types (a
+    chain's field) by its module and name. (Its type's repr holds the
+    function's address in this process: two processes took different locks
+    and compiled the same chain at once, ~30 s of CPU each.)"""
+    spelled = tuple(_spelled(kind) for kind in kinds)
+    name = hashlib.sha256(repr((function.py_func.__name__, spelled)).encode())
+    return os.path.join(function.stats.cache_path, f"{name.hexdigest()[:16]}.lock")
+
+
+def _spelled(kind) -> str:
+    """A numba type as any process spells it (`_lock_path`)."""
+    dispatcher = getattr(kind, "dispatcher", None)
+    if dispatcher is None:
+        return repr(kind)
+    return f"compiled {dispatcher.py_func.__module__}.{dispatcher.py_func.__qualname__}"
 
 
 def record(parameters) -> tuple:
