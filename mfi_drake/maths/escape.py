@@ -451,27 +451,23 @@ def goal_hidden(
     about its axis (horizontally): the tangent plane of a 0.075 m post hides
     half the world, and in clutter some post's always hid the goal. A
     sharp edge (ρ < `ROUND`: a jamb, a box's corner) keeps its tangent
-    plane: the face it bounds is unseen."""
-    radii = _remembered_radii(memory, p, obstacle, math.inf)
+    plane: the face it bounds is unseen. `memory` as `record_surfaces`
+    left it at p: reading i's radius is its record i."""
+    radii = _radii(memory)
+    way = _across(r_g)
+    length = _norm(way)
     for i, (r_o, seen) in enumerate(readings(obstacle)):
         distance = _norm(r_o)
         if seen < 0.5 or distance < 1e-9:
             continue
         rho = radii[i]
-        if not ROUND <= rho < math.inf:
-            if r_g @ r_o > distance * distance:
+        if ROUND <= rho < math.inf and length > 1e-9:
+            # An upright post: the horizontal way to the goal against its axis.
+            c = _across(_edge_centre(p + r_o, rho, p) - p)
+            along = min(max(c @ way / length, 0.0), length)
+            if _norm(c - along * way / length) < rho + collision_radius:
                 return True
-            continue
-        # An upright post: the horizontal way to the goal against its axis.
-        c = _across(_edge_centre(p + r_o, rho, p) - p)
-        way = _across(r_g)
-        length = _norm(way)
-        if not length > 1e-9:
-            if r_g @ r_o > distance * distance:
-                return True
-            continue
-        along = min(max(c @ way / length, 0.0), length)
-        if _norm(c - along * way / length) < rho + collision_radius:
+        elif r_g @ r_o > distance * distance:
             return True
     return False
 
@@ -565,8 +561,9 @@ def update_memory(
         elif t - memory[T_BEST] > params.stall_time:
             memory[PHASE], memory[LAST_P] = FOLLOW, p
         return memory
-    hidden = goal_hidden(memory, p, obstacle, r_g, collision_radius)
-    if d < memory[D_HIT] - params.leave_margin and not hidden:
+    if d < memory[D_HIT] - params.leave_margin and not goal_hidden(
+        memory, p, obstacle, r_g, collision_radius
+    ):
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
     # The followable readings, once for the door, the record and the
@@ -643,24 +640,16 @@ def plane_flags(
     by `record_surfaces`: that of the remembered point nearest its closest
     point (1: a plane, where none is remembered, and for the readings not
     asked about)."""
-    radii = _remembered_radii(memory, p, obstacle, collision_radius + r_b)
-    return np.where(radii == np.inf, 1.0, 0.0)
-
-
-def _remembered_radii(memory: np.ndarray, p: np.ndarray, obstacle, within: float):
-    """Each seen reading's radius of curvature (`record_surfaces`) where its
-    closest point lies within `within` of p: the remembered point's nearest
-    it; inf (a plane) where none is remembered, and for the others."""
     last = _seen_points(memory)
-    radii = np.full(len(last), np.inf)
+    flags = np.ones(len(last))
     for i, (r_o, seen) in enumerate(readings(obstacle)):
-        if seen < 0.5 or not _norm(r_o) < within:
+        if seen < 0.5 or not _norm(r_o) - collision_radius < r_b:
             continue
         gaps = _row_norms(last - (p + r_o))
         j = int(np.argmin(gaps))
         if np.isfinite(gaps[j]):
-            radii[i] = _radii(memory)[j]
-    return radii
+            flags[i] = 1.0 if _radii(memory)[j] == np.inf else 0.0
+    return flags
 
 
 def _into_ground(memory, p, q, goal, ground) -> bool:
