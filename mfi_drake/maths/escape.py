@@ -38,7 +38,7 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   own reading) reveal a gap: the vehicle passes it along the line ⟂ the two
   through their middle (phase PASS: pure pursuit of a subgoal
   `PASS_AHEAD` ahead on that line), then goes toward the goal again; a gap
-  not passed within twice the time its line takes (`_pass_time`) is given up and the traversal goes on;
+  not passed within `stall_time` is given up and the traversal goes on;
   the last gap passed is not passed again. (TangentBug's discontinuity
   points of the range data, Kamon, Rimon, Rivlin, IJRR 17(9), 1998, read
   from the closest points of separate obstacles.)
@@ -172,7 +172,6 @@ DOOR_WIDEST = 2.0  # m; wider, rounding one jamb at r_f passes it (1.34 m)
 ROUND = 0.01
 PASS_AHEAD = 1.0  # m, the subgoal's lead along the line through the door
 PASS_BEYOND = 1.0  # m past the door's middle: through
-PASS_TURN = 1.0  # s, the turn onto the door's line (`_pass_time`)
 
 
 @dataclass
@@ -555,14 +554,11 @@ def update_memory(
             _start_traversal(memory, p, v, obstacle, goal, near, params, ground)
         return memory
     if phase == PASS:
-        # Through the door: toward the goal again. Not through in twice the
-        # time the way along its line takes at the follow speed (LAST_P: p
-        # where the door was seen), and a second for the turn onto it: no
-        # way through after all (in clutter, more posts behind the gap),
-        # and the traversal goes on before the pursuit pushes into them.
+        # Through the door: toward the goal again; stuck before it (no way
+        # through after all): the traversal goes on.
         if (p - memory[DOOR]) @ memory[DOOR_AXIS] > PASS_BEYOND:
             memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
-        elif t - memory[T_BEST] > _pass_time(memory, params):
+        elif t - memory[T_BEST] > params.stall_time:
             memory[PHASE], memory[LAST_P] = FOLLOW, p
         return memory
     if d < memory[D_HIT] - params.leave_margin and not goal_hidden(
@@ -605,14 +601,6 @@ def update_memory(
     if looped or grounded:
         _begin_axis(memory, int(memory[AXIS]) + 1, p, obstacle, goal, near, ground)
     return memory
-
-
-def _pass_time(memory: np.ndarray, params: EscapeParams) -> float:
-    """The time PASS may take (`update_memory`): twice the way from where
-    the door was seen (LAST_P) to PASS_BEYOND past it at the follow speed,
-    and PASS_TURN."""
-    way = PASS_BEYOND - (memory[LAST_P] - memory[DOOR]) @ memory[DOOR_AXIS]
-    return 2.0 * way / params.follow_speed + PASS_TURN
 
 
 def record_surfaces(memory: np.ndarray, p: np.ndarray, obstacle) -> None:
