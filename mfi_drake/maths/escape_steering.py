@@ -13,9 +13,10 @@ subgoal ĝ (`subgoal`), eq 19's setpoint with the corner brake
   the goal (the goal's height for ±e_z) is hugged, its pull clipped at 1.
   Through a door (PASS): pure pursuit of a point PASS_AHEAD ahead on the
   line through its middle.
-- Corner brake (any phase but PASS): in a concave corner eq 19's setpoint
-  keeps the closing speed toward each surface below c·r (`corner_speed`,
-  `corner_rate`).
+- Corner brake: in a concave corner eq 19's setpoint keeps the closing
+  speed toward each surface below c·r (`corner_speed`, `corner_rate`);
+  through a door (PASS), toward every surface but the door's sides
+  (`door_speed`).
 
 `systems.escape.EscapeNavigator` calls them;
 so does the compiled engine's chain (`maths.fleet`, compiled by
@@ -120,16 +121,56 @@ def corner_speed(
                 and v @ normals[i] > 0.0
                 and v @ normals[j] > 0.0
             )
-    speed = float(_norm(v))
-    if not corner or speed < 1e-9:
+    if not corner:
         return math.inf
+    return _closing_limit(seen, v, collision_radius, rate)
+
+
+def _closing_limit(seen: list, v: np.ndarray, collision_radius: float, rate: float):
+    """|v| ≤ rate · r / (l_a·n) over the surfaces `seen` (each r_o) the
+    vehicle closes on (l_a·n > 0) at clearance r (math.inf: none)."""
+    speed = float(_norm(v))
     limit = math.inf
-    for i in range(len(seen)):
-        closing = (v @ normals[i]) / speed  # l_a·n
+    if speed < 1e-9:
+        return limit
+    for r_o in seen:
+        distance = float(_norm(r_o))
+        closing = (v @ r_o) / (distance * speed)  # l_a·n
         if closing > 0.0:
-            r = max(0.0, float(_norm(seen[i])) - collision_radius)
+            r = max(0.0, distance - collision_radius)
             limit = min(limit, rate * r / closing)
     return limit
+
+
+def door_speed(
+    memory: np.ndarray,
+    obstacle,
+    p: np.ndarray,
+    v: np.ndarray,
+    collision_radius: float,
+    r_b: float,
+    rate: float,
+) -> float:
+    """The speed setpoint of eq 19 through a door (PASS): `corner_speed`'s
+    closing-speed limit against every surface within r_b but the door's
+    sides, those whose closest point lies on the door's line (within R of
+    it along the way through) and beside its passable middle (R +
+    GAP_MARGIN/2 from the middle or more). The pursuit pulls the vehicle
+    on into whatever stands in or behind the gap (in clutter, more posts),
+    where eq 14–15 only turn it; the sides it passes between, braked
+    against, would slow every door to a crawl."""
+    along = memory[DOOR_AXIS]
+    side = collision_radius + 0.5 * GAP_MARGIN
+    seen = []
+    for r_o, s in readings(obstacle):
+        if not (s > 0.5 and _norm(r_o) - collision_radius < r_b):
+            continue
+        w = p + r_o - memory[DOOR]
+        depth = float(w @ along)
+        if abs(depth) < collision_radius and _norm(w - depth * along) >= side:
+            continue
+        seen.append(r_o)
+    return _closing_limit(seen, v, collision_radius, rate)
 
 
 def subgoal(
@@ -209,7 +250,7 @@ def steering(
     setpoint) from the memory and the static scene's readings `scene` (a
     fleet's other vehicles are not in them: `escape_terms`): v_d at the
     follow speed while ĝ is not the goal, at most `corner_speed` (gain
-    `rate`, `corner_rate`) in a concave corner outside PASS. Only while
+    `rate`, `corner_rate`) in a concave corner, `door_speed` in PASS. Only while
     eq 21 cruises (`cruise`): in its PD mode (eq 20) there is no eq 16–19
     to redirect or brake, and the difference terms of `redirected` would
     act alone (a goal in a corner: held 0.5 m short of it)."""
@@ -219,10 +260,10 @@ def steering(
         return target, False, v_d
     if steered:
         v_d = rule.follow_speed
-    # Through a door the jambs (and the ground or lintel) within r_b are
-    # the sides of the gap flown through, not a corner ahead: eq 14–15
-    # guard each, as MFI's do in any gap.
-    if rule.corner_brake and memory[PHASE] != PASS:
+    if rule.corner_brake and memory[PHASE] == PASS:
+        r_b = navigator.r_b
+        v_d = min(v_d, door_speed(memory, scene, p, v, collision_radius, r_b, rate))
+    elif rule.corner_brake:
         planes = plane_flags(memory, p, scene, collision_radius, navigator.r_b)
         corner = corner_speed(scene, v, collision_radius, navigator.r_b, rate, planes)
         v_d = min(v_d, corner)
