@@ -194,7 +194,7 @@ class EscapeParams:
     leave_margin: float = 0.3  # m, leave only this much nearer than d_hit
     loop_radius: float = 1.0  # m, back this near H: a loop is closed
     revisit_radius: float = 1.5  # m, a trap this near a hit point resumes it
-    corner_brake: bool = True  # eq 19's v_d limited in a concave corner
+    corner_brake: bool = True  # eq 19's v_d limited in a concave corner, in a door
     # With depth cameras too (off: MFI flies memoryless there, `escape_off`):
     # the rule follows surfaces beside and below that no camera may see.
     cameras: bool = False
