@@ -76,6 +76,35 @@ def test_a_door_by_hand(width):
     assert away is None
 
 
+def test_through_a_door_only_what_stands_in_the_way_brakes():
+    """Hand case, PASS through a 1 m door (jambs at x = 0 and 1 on y = 0,
+    the way through +y), the vehicle in the door's middle flying +y at
+    1 m/s: the jambs beside it are the door's sides and do not brake (no
+    limit); a post 0.3 m ahead, its closest point on the line, limits the
+    speed to rate · r / (l_a·n) = rate · (0.3 − R) / 1; the same post
+    approached at 60° off the velocity, to rate · r / cos 60°."""
+    memory = following()
+    memory[escape.PHASE] = escape.PASS
+    memory[escape.DOOR] = [0.5, 0.0, 1.5]
+    memory[escape.DOOR_AXIS] = [0.0, 1.0, 0.0]
+    p = np.array([0.5, 0.0, 1.5])
+    v = np.array([0.0, 1.0, 0.0])
+    sides = [np.array([-0.5, 0.0, 0.0]), np.array([0.5, 0.0, 0.0])]
+    rate, r_b = 0.25, 0.6
+
+    def limit(*points):
+        seen = obstacle_signal(list(points))
+        return escape_steering.door_speed(memory, seen, p, v, RADIUS, r_b, rate)
+
+    assert limit(*sides) == np.inf
+    ahead = np.array([0.0, 0.3, 0.0])
+    assert limit(*sides, ahead) == pytest.approx(rate * (0.3 - RADIUS))
+    aside = 0.3 * np.array([np.sin(np.pi / 3), np.cos(np.pi / 3), 0.0])
+    assert limit(aside) == pytest.approx(rate * (0.3 - RADIUS) / 0.5)
+    # Beyond r_b of clearance nothing brakes.
+    assert limit(np.array([0.0, r_b + RADIUS + 0.01, 0.0])) == np.inf
+
+
 def test_no_door_at_a_face_a_narrow_gap_or_a_corner():
     """A face (its closest point moved with the vehicle), a gap narrower
     than 2R + GAP_MARGIN, a far reading that is a face, and a concave
