@@ -47,9 +47,7 @@ def test_a_door_by_hand(width):
     0.05 m along the wall) and the far jamb `width` away: a door, its middle
     halfway along, the way through ⟂ the wall (+y); the memory passes it,
     its subgoal on the line through the middle, PASS_AHEAD past the wall."""
-    found = escape.door(
-        following(width=width), jambs(width), P, GOAL, escape.E_Z, RADIUS
-    )
+    found = escape.door(following(width=width), jambs(width), P, escape.E_Z, RADIUS)
     middle = np.array([width / 2, 0.0, 1.5])
     assert found[0] == pytest.approx(middle)
     assert found[1] == pytest.approx([0.0, 1.0, 0.0])
@@ -66,14 +64,7 @@ def test_a_door_by_hand(width):
     )
     assert after[escape.PHASE] == escape.TOWARD
     # The door passed is not passed again.
-    assert escape.door(after, jambs(width), P, GOAL, escape.E_Z, RADIUS) is None
-    # A door that leads away from the goal (the goal on the vehicle's side
-    # of the wall, 5 m back) is not one to pass.
-    behind = P - [0.0, 5.0, 0.0]
-    away = escape.door(
-        following(width=width), jambs(width), P, behind, escape.E_Z, RADIUS
-    )
-    assert away is None
+    assert escape.door(after, jambs(width), P, escape.E_Z, RADIUS) is None
 
 
 def test_through_a_door_only_what_stands_in_the_way_brakes():
@@ -110,18 +101,18 @@ def test_no_door_at_a_face_a_narrow_gap_or_a_corner():
     than 2R + GAP_MARGIN, a far reading that is a face, and a concave
     corner (two faces' feet 0.95 m apart, what a 1 m door also looks like
     in one reading): no door."""
-    assert escape.door(following(STEP), jambs(1.0), P, GOAL, escape.E_Z, RADIUS) is None
+    assert escape.door(following(STEP), jambs(1.0), P, escape.E_Z, RADIUS) is None
     narrow = 2 * RADIUS + escape.GAP_MARGIN - 0.01
     memory = following(width=narrow)
-    assert escape.door(memory, jambs(narrow), P, GOAL, escape.E_Z, RADIUS) is None
+    assert escape.door(memory, jambs(narrow), P, escape.E_Z, RADIUS) is None
     # The far reading a face (moved with the vehicle): a baffle's root wall.
     memory = following()
     memory[escape.LAST_POINTS][3] -= STEP[0]
-    assert escape.door(memory, jambs(1.0), P, GOAL, escape.E_Z, RADIUS) is None
+    assert escape.door(memory, jambs(1.0), P, escape.E_Z, RADIUS) is None
     corner = obstacle_signal([np.array([0.0, 0.7, 0.0]), np.array([0.67, 0.0, 0.0])])
     memory = following(STEP)
     memory[escape.SURFACE] = P + [-0.05, 0.7, 0.0]  # the foot on the wall at +y
-    assert escape.door(memory, corner, P, GOAL, escape.E_Z, RADIUS) is None
+    assert escape.door(memory, corner, P, escape.E_Z, RADIUS) is None
 
 
 POST = 0.075  # m, a BARN post's radius
@@ -200,7 +191,7 @@ def test_the_gap_between_two_posts_is_measured_between_their_surfaces(spacing, d
     memory, seen = between_posts(spacing)
     closest = np.linalg.norm(seen[4:7] - seen[0:3])
     assert closest > 2 * RADIUS + escape.GAP_MARGIN
-    found = escape.door(memory, seen, P, GOAL, escape.E_Z, RADIUS)
+    found = escape.door(memory, seen, P, escape.E_Z, RADIUS)
     if not door:
         assert found is None
     else:

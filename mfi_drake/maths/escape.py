@@ -315,7 +315,6 @@ def door(
     memory: np.ndarray,
     obstacle,
     p: np.ndarray,
-    goal: np.ndarray,
     a: np.ndarray,
     collision_radius: float,
     ground: float | None = None,
@@ -329,14 +328,13 @@ def door(
     of the wall a baffle stands on), 2R + GAP_MARGIN to DOOR_WIDEST from q
     (a separate obstacle: the sensor reads one closest point an obstacle),
     their middle not the last gap passed. The way through is ⟂
-    q' − q, from the vehicle toward the line through the two, and leads to
-    the goal's side of that line."""
+    q' − q, from the vehicle toward the line through the two."""
     points = _candidates(obstacle, p, a, ground)
-    middle, through = _gap(memory, points, p, goal, collision_radius)
+    middle, through = _gap(memory, points, p, collision_radius)
     return (middle, through) if through.any() else None
 
 
-def _gap(memory, points: list, p, goal, collision_radius) -> tuple:
+def _gap(memory, points: list, p, collision_radius) -> tuple:
     """`door`'s (middle, unit direction through) among the candidates
     `points` (`_candidates`), `_no_gap` where there is none (one type for
     numba). The gap is measured between the two edges' rounded shapes
@@ -370,10 +368,7 @@ def _gap(memory, points: list, p, goal, collision_radius) -> tuple:
         c = middle - p
         through = c - (c @ w) * w / (span * span)
         size = float(_norm(through))
-        # A door whose far side is not the goal's leads away from it (a
-        # room's other door): following the wall on reaches the goal's
-        # side, where passing it and coming back would alternate.
-        if size > 1e-6 and (goal - middle) @ through > 0.0:
+        if size > 1e-6:
             return middle, through / size
     return _no_gap()
 
@@ -574,7 +569,7 @@ def update_memory(
     # The followable readings, once for the door, the record and the
     # followed point.
     candidates = _candidates(obstacle, p, axis(memory, goal), ground)
-    middle, through = _gap(memory, candidates, p, goal, collision_radius)
+    middle, through = _gap(memory, candidates, p, collision_radius)
     memory[LAST_P] = p
     last = _last_points(memory)
     last[:] = np.inf
