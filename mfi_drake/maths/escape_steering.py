@@ -152,13 +152,14 @@ def door_speed(
     rate: float,
 ) -> float:
     """The speed setpoint of eq 19 through a door (PASS): `corner_speed`'s
-    closing-speed limit against every surface within r_b but the door's
-    sides, those whose closest point lies on the door's line (within R of
-    it along the way through) and beside its passable middle (R +
-    GAP_MARGIN/2 from the middle or more). The pursuit pulls the vehicle
-    on into whatever stands in or behind the gap (in clutter, more posts),
-    where eq 14–15 only turn it; the sides it passes between, braked
-    against, would slow every door to a crawl."""
+    closing-speed limit against the surfaces within r_b that stand in or
+    behind the gap: their closest point more than R past the door's line
+    along the way through, or within R of it and less than R +
+    GAP_MARGIN/2 beside its middle. The pursuit pulls the vehicle on into
+    them (in clutter, more posts behind the gap), where eq 14–15 only turn
+    it; the door's sides, braked against, slowed every door to a crawl,
+    and the surfaces on the near side (the floor, the wall above a door)
+    are MFI's as before PASS."""
     along = memory[DOOR_AXIS]
     side = collision_radius + 0.5 * GAP_MARGIN
     seen = []
@@ -167,7 +168,9 @@ def door_speed(
             continue
         w = p + r_o - memory[DOOR]
         depth = float(w @ along)
-        if abs(depth) < collision_radius and _norm(w - depth * along) >= side:
+        if depth < -collision_radius or (
+            depth < collision_radius and _norm(w - depth * along) >= side
+        ):
             continue
         seen.append(r_o)
     return _closing_limit(seen, v, collision_radius, rate)
