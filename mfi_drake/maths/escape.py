@@ -39,7 +39,7 @@ goal, so MFI's guarantees against contact (eq 14–15) hold throughout.
   through their middle (phase PASS: pure pursuit of a subgoal
   `PASS_AHEAD` ahead on that line), then goes toward the goal again; a gap
   not passed within `stall_time` is given up and the traversal goes on;
-  the last two gaps passed are not passed again. (TangentBug's discontinuity
+  the last gap passed is not passed again. (TangentBug's discontinuity
   points of the range data, Kamon, Rimon, Rivlin, IJRR 17(9), 1998, read
   from the closest points of separate obstacles.)
 - Leave: |r_g| < d_hit − `leave_margin` and no seen surface's tangent plane
@@ -101,9 +101,9 @@ SURFACE_SEEN = 13  # 1 once SURFACE holds a point
 # began (inf: none seen there): a loop closes only back on that surface.
 HIT_SURFACE = slice(14, 17)
 LAST_P = slice(17, 20)  # p at the last step's update while following
-DOOR = slice(20, 23)  # the middle of the gap being or last passed (inf: none)
+DOOR = slice(20, 23)  # the middle of the gap being passed (PASS)
 DOOR_AXIS = slice(23, 26)  # the unit direction through it
-PASSED = slice(26, 29)  # the middle of the gap passed before DOOR (inf: none)
+PASSED = slice(26, 29)  # the middle of the last gap passed (inf: none)
 RING_NEXT = 29  # the ring's next slot
 RING = RING_NEXT + 1  # HITS rows of [x, y, z, next axis]
 # Every phase's record of the seen readings for the corner brake and the
@@ -207,7 +207,6 @@ def initial_memory(
     `count`: the sensor's readings."""
     memory = np.zeros(memory_size(count))
     memory[D_BEST] = _norm(goal - p)
-    memory[DOOR] = np.inf
     memory[PASSED] = np.inf
     memory[FIXED_SIZE : FIXED_SIZE + 6 * count] = np.inf  # last and seen points
     memory[SEEN_P] = p
@@ -328,7 +327,7 @@ def door(
     another reading's closest point q' (the far jamb's edge, not the face
     of the wall a baffle stands on), 2R + GAP_MARGIN to DOOR_WIDEST from q
     (a separate obstacle: the sensor reads one closest point an obstacle),
-    their middle not one of the last two gaps passed. The way through is ⟂
+    their middle not the last gap passed. The way through is ⟂
     q' − q, from the vehicle toward the line through the two."""
     points = _candidates(obstacle, p, a, ground)
     middle, through = _gap(memory, points, p, collision_radius)
@@ -363,7 +362,6 @@ def _gap(memory, points: list, p, collision_radius) -> tuple:
         middle = (kept + other) / 2
         if (
             not 2 * collision_radius + GAP_MARGIN < gap < DOOR_WIDEST
-            or _norm(middle - memory[DOOR]) < span
             or _norm(middle - memory[PASSED]) < span
         ):
             continue
@@ -578,8 +576,8 @@ def update_memory(
     for i, (_, point) in enumerate(candidates):
         last[i] = point
     if through.any():
-        memory[PASSED] = memory[DOOR]
         memory[DOOR], memory[DOOR_AXIS] = middle, through
+        memory[PASSED] = middle
         memory[PHASE], memory[T_BEST] = PASS, t
         return memory
     q = _followed(memory, candidates, p, near)
