@@ -1,11 +1,14 @@
 """The escape rule's door detector and its passage (maths.escape.door,
 phase PASS; docs/nonconvex.md, "The escape rule", rule 7)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.dynamic import Ground
+from mfi_drake.config.parameters import NavigatorParams
 from mfi_drake.config.vehicles import VEHICLES
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths import escape, escape_steering
@@ -68,12 +71,13 @@ def test_a_door_by_hand(width):
 
 
 def test_through_a_door_only_what_stands_in_the_way_brakes():
-    """Hand case, PASS through a 1 m door (jambs at x = 0 and 1 on y = 0,
-    the way through +y), the vehicle in the door's middle flying +y at
-    1 m/s: the jambs beside it are the door's sides and do not brake (no
-    limit); a post 0.3 m ahead, its closest point on the line, limits the
-    speed to rate · r / (l_a·n) = rate · (0.3 − R) / 1; the same post
-    approached at 60° off the velocity, to rate · r / cos 60°."""
+    """`door_brake`'s limit (`door_speed`). Hand case, PASS through a 1 m
+    door (jambs at x = 0 and 1 on y = 0, the way through +y), the vehicle
+    in the door's middle flying +y at 1 m/s: the jambs beside it are the
+    door's sides and do not brake (no limit); a post 0.3 m ahead, its
+    closest point on the line, limits the speed to rate · r / (l_a·n) =
+    rate · (0.3 − R) / 1; the same post approached at 60° off the
+    velocity, to rate · r / cos 60°."""
     memory = following()
     memory[escape.PHASE] = escape.PASS
     memory[escape.DOOR] = [0.5, 0.0, 1.5]
@@ -94,6 +98,15 @@ def test_through_a_door_only_what_stands_in_the_way_brakes():
     assert limit(aside) == pytest.approx(rate * (0.3 - RADIUS) / 0.5)
     # Beyond r_b of clearance nothing brakes.
     assert limit(np.array([0.0, r_b + RADIUS + 0.01, 0.0])) == np.inf
+    # eq 19's setpoint in PASS: the follow speed, the limit with the switch.
+    navigator = NavigatorParams()
+    seen = obstacle_signal([*sides, ahead])
+    for brake, v_d in ((False, RULE.follow_speed), (True, rate * (0.3 - RADIUS))):
+        rule = dataclasses.replace(RULE, door_brake=brake)
+        steer = escape_steering.steering(
+            memory, p, v, seen, GOAL, RADIUS, navigator, rule, rate
+        )
+        assert steer[2] == pytest.approx(v_d)
 
 
 def test_no_door_at_a_face_a_narrow_gap_or_a_corner():

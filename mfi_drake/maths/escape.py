@@ -194,7 +194,12 @@ class EscapeParams:
     leave_margin: float = 0.3  # m, leave only this much nearer than d_hit
     loop_radius: float = 1.0  # m, back this near H: a loop is closed
     revisit_radius: float = 1.5  # m, a trap this near a hit point resumes it
-    corner_brake: bool = True  # eq 19's v_d limited in a concave corner, in a door
+    corner_brake: bool = True  # eq 19's v_d limited in a concave corner
+    # Eq 19's v_d limited through a door against what stands in or behind
+    # it (`escape_steering.door_speed`): off by default, where it costs
+    # flights (docs/nonconvex.md rule 7); on, clutter seen with more
+    # readings is passed without contact.
+    door_brake: bool = False
     # With depth cameras too (off: MFI flies memoryless there, `escape_off`):
     # the rule follows surfaces beside and below that no camera may see.
     cameras: bool = False

@@ -15,8 +15,8 @@ subgoal ĝ (`subgoal`), eq 19's setpoint with the corner brake
   line through its middle.
 - Corner brake: in a concave corner eq 19's setpoint keeps the closing
   speed toward each surface below c·r (`corner_speed`, `corner_rate`);
-  through a door (PASS), toward every surface but the door's sides
-  (`door_speed`).
+  through a door (PASS), with `door_brake`, toward what stands in or
+  behind it (`door_speed`).
 
 `systems.escape.EscapeNavigator` calls them;
 so does the compiled engine's chain (`maths.fleet`, compiled by
@@ -253,7 +253,8 @@ def steering(
     setpoint) from the memory and the static scene's readings `scene` (a
     fleet's other vehicles are not in them: `escape_terms`): v_d at the
     follow speed while ĝ is not the goal, at most `corner_speed` (gain
-    `rate`, `corner_rate`) in a concave corner, `door_speed` in PASS. Only while
+    `rate`, `corner_rate`) in a concave corner, `door_speed` in PASS with
+    `door_brake`. Only while
     eq 21 cruises (`cruise`): in its PD mode (eq 20) there is no eq 16–19
     to redirect or brake, and the difference terms of `redirected` would
     act alone (a goal in a corner: held 0.5 m short of it)."""
@@ -263,9 +264,12 @@ def steering(
         return target, False, v_d
     if steered:
         v_d = rule.follow_speed
-    if rule.corner_brake and memory[PHASE] == PASS:
-        r_b = navigator.r_b
-        v_d = min(v_d, door_speed(memory, scene, p, v, collision_radius, r_b, rate))
+    if memory[PHASE] == PASS:
+        # Through a door the jambs are the sides of the gap flown through,
+        # not a corner ahead: eq 14–15 guard each, as MFI's do in any gap.
+        if rule.door_brake:
+            r_b = navigator.r_b
+            v_d = min(v_d, door_speed(memory, scene, p, v, collision_radius, r_b, rate))
     elif rule.corner_brake:
         planes = plane_flags(memory, p, scene, collision_radius, navigator.r_b)
         corner = corner_speed(scene, v, collision_radius, navigator.r_b, rate, planes)
