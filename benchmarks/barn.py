@@ -3,7 +3,8 @@ Perille et al., SSRR 2020) as scenarios, their feasibility, and flights.
 
     python benchmarks/barn.py WORLDS_DIR --worlds 1 3 5 [--methods mfi,gf]
                               [--out out/barn] [--write-scenarios]
-                              [--readings N --engine systems]
+                              [--readings N] [--engine systems]
+                              [--set YAML ...]
 
 WORLDS_DIR holds the benchmark's world_N.world files (jackal_helper/worlds/
 BARN in the challenge's repository; not part of this project). For each
@@ -30,8 +31,9 @@ index N of --worlds:
   (0.014 m) either way.
 - flights: each method of --methods, `simulate` on the compiled engine
   (--engine; the engines fly the same flights, benchmarks/engines.py),
-  the sphere sensor reporting --readings obstacles (default 3; another
-  count flies on the systems engine only).
+  the sphere sensor reporting --readings obstacles (default 3), with the
+  scenario fields of each --set layered on (e.g. 'escape: {door_brake:
+  true}').
 
 Prints one line a world and method and the table of success, collision and
 timeout per method (feasible worlds only counted as reachable); writes
@@ -51,6 +53,7 @@ from scipy import ndimage
 
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.scenario import ENGINES
+from mfi_drake.config.scenario_yaml import layer
 from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.files import write_text
 from mfi_drake.flight.simulation import simulate
@@ -164,6 +167,7 @@ def main() -> None:
     parser.add_argument("--engine", default="compiled", choices=ENGINES)
     parser.add_argument("--write-scenarios", action="store_true")
     parser.add_argument("--readings", type=int, default=sc.SphereSensor().readings)
+    parser.add_argument("--set", action="append", default=[], metavar="YAML")
     args = parser.parse_args()
     methods = args.methods.split(",")
     radius = as_vehicle("drake_default").collision_radius
@@ -174,6 +178,8 @@ def main() -> None:
         scenario = barn_scenario(path, f"barn_{index}")
         scenario.engine = args.engine
         scenario.sensor.readings = args.readings
+        for text in args.set:
+            scenario = layer(scenario, text, f"--set {text!r}")
         widest = widest_passage(cylinders(path))
         if args.write_scenarios:
             write_scenario(scenario, os.path.join(args.out, f"world_{index}.yaml"))
