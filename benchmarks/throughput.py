@@ -84,6 +84,7 @@ from mfi_drake.flight.simulator import fly, run_timed, simulator_at_start
 from mfi_drake.studies.sweep import (
     SWEEP_ENDS,
     field_reference,
+    fly_field,
     task_scenario,
 )
 from mfi_drake.studies.variants import with_overrides
@@ -525,8 +526,13 @@ def sweeps(fields: int, seed: int, say) -> dict[str, float]:
         ("every method", list(DEFAULT_METHODS), 2, "compiled", seed + 3),
     ]
     # The cache warm, as after installation: one untimed field of every
-    # method (the chains a sweep compiles on the first field it flies).
-    flights_per_minute(1, 1, seed, list(DEFAULT_METHODS), "compiled")
+    # method (the chains a sweep compiles on the first field it flies),
+    # flown here as a sweep's worker flies it: numba's cache on disk is what
+    # the sweeps' workers load (no process and cluster of its own to start).
+    text = scenario_to_yaml(generator.random_field(seed, 0, generator.DEFAULT_DENSITY))
+    reference = field_reference(text)
+    for method in DEFAULT_METHODS:
+        fly_field(text, method, reference)
     rates = {}
     for label, methods, workers, engine, fields_seed in runs:
         before = load()

@@ -16,6 +16,10 @@ def test_throughput_prints_every_part_and_writes_the_page(capsys, tmp_path):
     page.write_text("# P\n<!-- BEGIN throughput -->\nold\n<!-- END throughput -->\n")
     argv = ["--duration", "2.0", "--repeats", "1", "--split", "1", "--fields", "1"]
     argv += ["--compare", "1", "--scenarios", "sharp_*.yaml"]
+    # Fixed fields (the time's seed varied the test's CPU by 2x with them):
+    # every method flies parts 3 and 4's (seeds 10 and 9) to its goal in
+    # ~20 s simulated, the cheap end of seeds 1-10.
+    argv += ["--seed", "6"]
     argv += ["--override", OVERRIDE]
     result = load_benchmark("throughput").main(argv + ["--page", str(page)])
     out = capsys.readouterr().out

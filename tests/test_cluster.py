@@ -325,7 +325,9 @@ def test_a_cluster_without_workers_is_one_line(
 ):
     """At the start (sweep and tune), and when the last worker dies."""
     empty = Cluster(tmp_path / "empty", client_dir)
-    monkeypatch.setattr(study_cluster, "WORKER_WAIT", 2.0)
+    # Short: each wait is idle time, and no worker can join (1 s a wait,
+    # three of them).
+    monkeypatch.setattr(study_cluster, "WORKER_WAIT", 1.0)
     try:
         for command in (
             ["sweep", "--n", "1"],
@@ -340,7 +342,7 @@ def test_a_cluster_without_workers_is_one_line(
             ]
             assert main(args) == 2
             (line,) = capsys.readouterr().err.strip().splitlines()
-            assert "has no workers: none joined within 2 s" in line, line
+            assert "has no workers: none joined within 1 s" in line, line
         empty.add_worker("lonely")
 
         def kill_when_napping():

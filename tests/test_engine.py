@@ -197,34 +197,40 @@ def test_processes_starting_together_compile_a_function_once(tmp_path):
     both (named by the field, not by its address in the process), and
     another field's is another."""
     script = (
-        "import sys, time\n"
+        "import sys\n"
         "import numpy as np\n"
         "from mfi_drake.maths import baselines, compiled, fields, fleet, so3\n"
         "function = compiled.compiled(so3).rotation_from_reference\n"
         "chain = compiled.compiled(fleet).fleet_chain\n"
         "for field in (fields.obstacle_field, baselines.gf_obstacle_field):\n"
         "    kind = chain.typeof_pyval(compiled.compiled_form(field))\n"
-        "    print(compiled._lock_path(chain, (kind,)))\n"
-        "time.sleep(max(0.0, float(sys.argv[1]) - time.time()))\n"
+        "    print(compiled._lock_path(chain, (kind,)), flush=True)\n"
+        "sys.stdin.readline()\n"
         "compiled.specialised(function, np.ones(3), np.array([0.0, 1.0, 0.0]))\n"
         "print(sum(function.stats.cache_misses.values()))\n"
     )
-    start = str(time.time() + 8.0)  # after both have imported numba
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
     runs = [
         subprocess.Popen(
-            [sys.executable, "-c", script, start],
+            [sys.executable, "-c", script],
             cwd=ROOT,
             env=env,
+            stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             text=True,
         )
         for _ in range(2)
     ]
+    # Both have imported numba once both have printed their locks' paths:
+    # then both are told to start (no fixed wait for the slower import).
+    paths = [[run.stdout.readline().strip() for _ in range(2)] for run in runs]
+    for run in runs:
+        run.stdin.write("start\n")
+        run.stdin.flush()
     outs = [run.communicate(timeout=120)[0].split() for run in runs]
     assert sorted(int(out[-1]) for out in outs) == [0, 1]
-    mfi, gf = outs[0][:2]
-    assert outs[1][:2] == [mfi, gf] and mfi != gf
+    mfi, gf = paths[0]
+    assert paths[1] == [mfi, gf] and mfi != gf
 
 
 def test_the_cache_falls_back_to_the_user_directory_where_the_package_is_read_only(
