@@ -222,3 +222,18 @@ def test_an_organized_cloud_drops_its_holes_in_one_line(tmp_path):
     expected = obstacle_distances(sc.Scenario(obstacles=[wall]), points)
     spacing = 0.15 * np.sqrt(2) / 2 + scenario.map_voxel * np.sqrt(3)
     np.testing.assert_allclose(got, np.asarray(expected) - 5e-4, atol=spacing)
+
+
+def test_a_vertex_too_far_out_fails_in_one_line(tmp_path):
+    """A finite vertex whose products overflow floats (1e308 m, found by
+    the loader fuzz: it made NaN surfaces) is refused by name, before any
+    surface is built; 1e6 m still reads."""
+    for far, ok in ((1e308, False), (1e6, True)):
+        path = tmp_path / f"far_{far:g}.obj"
+        path.write_text(f"v 0 0 0\nv 1 0 0\nv 0 1 {far}\nf 1 2 3\n")
+        if ok:
+            vertices, _ = read_mesh(str(path))
+            assert vertices[:, 2].max() == far
+        else:
+            with pytest.raises(ValueError, match="1e\\+308 m out, beyond 1e\\+07 m"):
+                read_mesh(str(path))

@@ -23,6 +23,7 @@ from collections.abc import Iterator
 import numpy as np
 
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".dae", ".gltf", ".glb")
+FARTHEST = 1e7  # m, the farthest a mesh's vertex may lie from its origin
 # Each up axis's rotation to z-up (rows: Drake's x, y, z from the file's).
 _TO_Z_UP = {
     "X_UP": np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
@@ -94,6 +95,11 @@ def read_mesh(path: str) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError("has no triangles")
     if not np.isfinite(vertices).all():
         raise ValueError("has a vertex that is not finite")
+    farthest = float(np.abs(vertices).max(initial=0.0))
+    if farthest > FARTHEST:
+        # Finite but past where a triangle's cross product stays finite in
+        # floats (a fuzzed STL at 1e308 m made NaN surfaces).
+        raise ValueError(f"has a vertex {farthest:g} m out, beyond {FARTHEST:g} m")
     if triangles.min() < 0 or triangles.max() >= len(vertices):
         raise ValueError("has a face whose vertex does not exist")
     return vertices, triangles
