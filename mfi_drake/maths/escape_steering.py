@@ -134,10 +134,9 @@ def _closing_limit(seen: list, v: np.ndarray, collision_radius: float, rate: flo
     if speed < 1e-9:
         return limit
     for r_o in seen:
-        distance = float(_norm(r_o))
-        closing = (v @ r_o) / (distance * speed)  # l_a·n
+        closing = (v @ (r_o / _norm(r_o))) / speed  # l_a·n
         if closing > 0.0:
-            r = max(0.0, distance - collision_radius)
+            r = max(0.0, float(_norm(r_o)) - collision_radius)
             limit = min(limit, rate * r / closing)
     return limit
 
