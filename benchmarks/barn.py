@@ -4,7 +4,7 @@ Perille et al., SSRR 2020) as scenarios, their feasibility, and flights.
     python benchmarks/barn.py WORLDS_DIR --worlds 1 3 5 [--methods mfi,gf]
                               [--out out/barn] [--write-scenarios]
                               [--readings N] [--engine systems]
-                              [--set YAML ...]
+                              [--set YAML ...] [--override FILE ...]
 
 WORLDS_DIR holds the benchmark's world_N.world files (jackal_helper/worlds/
 BARN in the challenge's repository; not part of this project). For each
@@ -32,8 +32,8 @@ index N of --worlds:
 - flights: each method of --methods, `simulate` on the compiled engine
   (--engine; the engines fly the same flights, benchmarks/engines.py),
   the sphere sensor reporting --readings obstacles (default 3), with the
-  scenario fields of each --set layered on (e.g. 'escape: {door_brake:
-  true}').
+  scenario fields of each --set and --override layered on in order, as
+  `mfi-drake run` layers them (e.g. --set 'escape: {door_brake: true}').
 
 Prints one line a world and method and the table of success, collision and
 timeout per method (feasible worlds only counted as reachable); writes
@@ -51,12 +51,13 @@ import xml.etree.ElementTree as ET
 import numpy as np
 from scipy import ndimage
 
+from mfi_drake.app.arguments import add_overrides, overrides
 from mfi_drake.config import scenario as sc
-from mfi_drake.config.scenario import ENGINES
-from mfi_drake.config.scenario_yaml import layer
+from mfi_drake.config.scenario import ENGINES, ScenarioError
 from mfi_drake.config.vehicles import as_vehicle
 from mfi_drake.files import write_text
 from mfi_drake.flight.simulation import simulate
+from mfi_drake.studies.variants import with_overrides
 from mfi_drake.world.generator import write_scenario
 from mfi_drake.world.nonconvex import THICKNESS, box
 
@@ -167,19 +168,24 @@ def main() -> None:
     parser.add_argument("--engine", default="compiled", choices=ENGINES)
     parser.add_argument("--write-scenarios", action="store_true")
     parser.add_argument("--readings", type=int, default=sc.SphereSensor().readings)
-    parser.add_argument("--set", action="append", default=[], metavar="YAML")
+    add_overrides(parser)
     args = parser.parse_args()
     methods = args.methods.split(",")
     radius = as_vehicle("drake_default").collision_radius
+    worlds = []
+    try:  # every world read and layered before anything flies
+        layers = overrides(args)
+        for index in args.worlds:
+            path = os.path.join(args.worlds_dir, f"world_{index}.world")
+            scenario = barn_scenario(path, f"barn_{index}")
+            scenario.engine = args.engine
+            scenario.sensor.readings = args.readings
+            worlds.append((index, path, with_overrides(scenario, layers)))
+    except (ScenarioError, OSError, ET.ParseError) as e:
+        parser.error(str(e))
     os.makedirs(args.out, exist_ok=True)
     records = []
-    for index in args.worlds:
-        path = os.path.join(args.worlds_dir, f"world_{index}.world")
-        scenario = barn_scenario(path, f"barn_{index}")
-        scenario.engine = args.engine
-        scenario.sensor.readings = args.readings
-        for text in args.set:
-            scenario = layer(scenario, text, f"--set {text!r}")
+    for index, path, scenario in worlds:
         widest = widest_passage(cylinders(path))
         if args.write_scenarios:
             write_scenario(scenario, os.path.join(args.out, f"world_{index}.yaml"))

@@ -118,3 +118,29 @@ def test_a_barn_world_converts_and_its_widest_passage_is_the_gap(tmp_path):
     assert len(scenario.obstacles) == len(points) + 2  # the floor, the ceiling
     assert obstacle_distances(scenario, [scenario.start]) == pytest.approx([0.5])
     assert barn.widest_passage(posts) == pytest.approx(0.375, abs=barn.CELL)
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"),
+    [
+        (["--set", "escape: {door_brak: 1}"], "escape.door_brak = 1"),
+        (["--worlds", "7"], "world_7.world"),
+    ],
+)
+def test_barn_refuses_bad_input_in_one_line_before_flying(
+    tmp_path, monkeypatch, capsys, extra, named
+):
+    """An unknown field in --set, or a world file that is not there: exit
+    status 2 and one line naming it, before any flight (no output folder)."""
+    barn = load_benchmark("barn")
+    path = tmp_path / "world_1.world"
+    path.write_text(WORLD.format(models=CYLINDER.format(k=0, x=0.0, y=5.0)))
+    out = tmp_path / "out"
+    argv = ["barn.py", str(tmp_path), "--worlds", "1", "--out", str(out), *extra]
+    monkeypatch.setattr("sys.argv", argv)
+    with pytest.raises(SystemExit) as error:
+        barn.main()
+    assert error.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert named in lines[-1] and "Traceback" not in "\n".join(lines)
+    assert not out.exists()
