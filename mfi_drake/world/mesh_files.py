@@ -113,11 +113,20 @@ def _trimesh(path: str, suffix: str) -> tuple[np.ndarray, np.ndarray]:
     try:
         # trimesh's merge of equal vertices casts absurd coordinates (1e308)
         # with a RuntimeWarning; the checks after reading judge the values.
+        no_files = trimesh.resolvers.ZipResolver({})
         with warnings.catch_warnings(), bounded_memory(path):
             warnings.simplefilter("ignore", RuntimeWarning)
-            # An OBJ's materials (textures) are not read: no flight sees them.
-            options = {"skip_materials": True} if suffix == ".obj" else {}
-            loaded = trimesh.load(path, file_type=suffix[1:], force="mesh", **options)
+            # Materials and textures are not read: no flight sees them, and an
+            # image cut off in a download would refuse the mesh. COLLADA's
+            # reader has no switch for it: its resolver is an empty archive,
+            # so every texture is missing (the reader drops it and goes on).
+            loaded = trimesh.load(
+                path,
+                file_type=suffix[1:],
+                force="mesh",
+                skip_materials=True,
+                resolver=no_files if suffix == ".dae" else None,
+            )
         vertices = np.asarray(loaded.vertices, dtype=float)
         triangles = np.asarray(loaded.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as e:  # the readers raise many kinds; the user needs one line

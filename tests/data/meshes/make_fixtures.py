@@ -4,7 +4,8 @@ convention, all of one scene so a test can compare them with primitives:
 - box_*: a box of 1 × 2 × 0.5 m (x, y, z in Drake's z-up frame), one corner
   at the origin, as a binary and an ASCII STL, a PLY, a glTF and a GLB
   (y-up, as glTF is by spec: Drake's (x, y, z) is glTF's (x, z, −y)), a
-  COLLADA file in centimetres (<unit meter="0.01">, Z_UP) and a Y_UP one;
+  COLLADA file in centimetres (<unit meter="0.01">, Z_UP), a Y_UP one and
+  a textured one whose image (box_textured.png) was cut off halfway;
 - wall_open.ply: two single-sided walls, 4 × 3 m with a door 1 m wide and
   2 m tall at x ∈ [1.5, 2.5] in the plane y = 0, and 3 × 3 m in the plane
   x = 4, as 0.5 m grid squares: an open, flat mesh;
@@ -18,7 +19,9 @@ convention, all of one scene so a test can compare them with primitives:
 import base64
 import json
 import os
+import re
 import struct
+import zlib
 
 import numpy as np
 
@@ -72,15 +75,57 @@ def write_ply(path: str, vertices, tris) -> None:
     PlyData(elements, text=True).write(path)
 
 
-def write_dae(path: str, vertices, tris, meter: float, up: str) -> None:
+def write_dae(path: str, vertices, tris, meter: float, up: str, texture=None) -> None:
+    """A COLLADA box; with `texture` (a file name beside it) its faces carry
+    texture coordinates and a material that maps that image."""
     floats = " ".join(f"{x:g}" for x in vertices.ravel())
-    indices = " ".join(str(i) for i in tris.ravel())
+    textured = texture is not None
+    # Without texture coordinates a face lists its vertices; with them each
+    # corner is (vertex, uv), the uv cycling through the image's four corners.
+    indices = enumerate(tris.ravel())
+    corners = [f"{i} {k % 4}" if textured else str(i) for k, i in indices]
+    uv_input = '<input semantic="TEXCOORD" source="#box-uv" offset="1" set="0"/>'
+    uv_source = """<source id="box-uv">
+          <float_array id="box-uv-array" count="8">0 0 1 0 1 1 0 1</float_array>
+          <technique_common>
+            <accessor source="#box-uv-array" count="4" stride="2">
+              <param name="S" type="float"/>
+              <param name="T" type="float"/>
+            </accessor>
+          </technique_common>
+        </source>"""
+    material = f"""<library_images>
+    <image id="image"><init_from>{texture}</init_from></image>
+  </library_images>
+  <library_effects>
+    <effect id="effect"><profile_COMMON>
+      <newparam sid="surface">
+        <surface type="2D"><init_from>image</init_from></surface>
+      </newparam>
+      <newparam sid="sampler"><sampler2D><source>surface</source></sampler2D></newparam>
+      <technique sid="common"><lambert>
+        <diffuse><texture texture="sampler" texcoord="uv"/></diffuse>
+      </lambert></technique>
+    </profile_COMMON></effect>
+  </library_effects>
+  <library_materials>
+    <material id="material"><instance_effect url="#effect"/></material>
+  </library_materials>"""
+    bind = """<bind_material><technique_common>
+          <instance_material symbol="paint" target="#material">
+            <bind_vertex_input semantic="uv" input_semantic="TEXCOORD" input_set="0"/>
+          </instance_material>
+        </technique_common></bind_material>"""
+    instance = '<instance_geometry url="#box"/>'
+    if textured:
+        instance = f'<instance_geometry url="#box">{bind}</instance_geometry>'
     text = f"""<?xml version="1.0" encoding="utf-8"?>
 <COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
   <asset>
     <unit name="unit" meter="{meter}"/>
     <up_axis>{up}</up_axis>
   </asset>
+  {material if textured else ""}
   <library_geometries>
     <geometry id="box" name="box">
       <mesh>
@@ -94,12 +139,14 @@ def write_dae(path: str, vertices, tris, meter: float, up: str) -> None:
             </accessor>
           </technique_common>
         </source>
+        {uv_source if textured else ""}
         <vertices id="box-vertices">
           <input semantic="POSITION" source="#box-positions"/>
         </vertices>
-        <triangles count="{len(tris)}">
+        <triangles count="{len(tris)}"{' material="paint"' if textured else ""}>
           <input semantic="VERTEX" source="#box-vertices" offset="0"/>
-          <p>{indices}</p>
+          {uv_input if textured else ""}
+          <p>{" ".join(corners)}</p>
         </triangles>
       </mesh>
     </geometry>
@@ -107,7 +154,7 @@ def write_dae(path: str, vertices, tris, meter: float, up: str) -> None:
   <library_visual_scenes>
     <visual_scene id="scene">
       <node id="node" name="node">
-        <instance_geometry url="#box"/>
+        {instance}
       </node>
     </visual_scene>
   </library_visual_scenes>
@@ -117,7 +164,27 @@ def write_dae(path: str, vertices, tris, meter: float, up: str) -> None:
 </COLLADA>
 """
     with open(path, "w") as f:
-        f.write(text)
+        f.write(re.sub(r"\n\s*\n", "\n", text))  # the untextured box's empty parts
+
+
+def write_truncated_png(path: str) -> None:
+    """A PNG of 32 × 32 noise cut off halfway through its pixels, as a
+    download or a checkout interrupted leaves one: it opens, then fails
+    when its pixels are read."""
+    width = height = 32
+    rows = (height, 3 * width + 1)
+    pixels = np.random.default_rng(0).integers(0, 256, rows, np.uint8)
+    pixels[:, 0] = 0  # each row's filter byte: none
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)  # 8-bit RGB
+    whole = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+    whole += chunk(b"IDAT", zlib.compress(pixels.tobytes())) + chunk(b"IEND", b"")
+    with open(path, "wb") as f:
+        f.write(whole[: len(whole) // 2])
 
 
 def gltf_parts(vertices, tris) -> tuple[dict, bytes]:
@@ -219,6 +286,8 @@ def main() -> None:
     write_ply(out("box.ply"), vertices, tris)
     write_dae(out("box_cm.dae"), vertices * 100.0, tris, 0.01, "Z_UP")
     write_dae(out("box_y_up.dae"), to_y_up(vertices), tris, 1.0, "Y_UP")
+    write_dae(out("box_textured.dae"), vertices, tris, 1.0, "Z_UP", "box_textured.png")
+    write_truncated_png(out("box_textured.png"))
     write_gltf(out("box.gltf"), to_y_up(vertices), tris)
     write_glb(out("box.glb"), to_y_up(vertices), tris)
     write_ply(out("wall_open.ply"), *wall_grid())
