@@ -228,6 +228,74 @@ def test_a_link_posed_relative_to_a_joint_is_where_the_joint_puts_it(tmp_path):
     np.testing.assert_allclose(ball.position, [3.0, 0.0, 0.5], atol=1e-12)
 
 
+def test_joints_gazebo_classic_allows_and_sdformat_refuses_are_read_past(tmp_path):
+    """Gazebo's own model collection holds joints Drake refuses: one named
+    as its child link, one named "world", one whose child names nothing.
+    Each is read past (said in the notes) and the links stay where they
+    are; a joint beside them whose frame a pose names still places it."""
+    ball = "<geometry><sphere><radius>0.2</radius></sphere></geometry>"
+    path = _world_file(
+        tmp_path,
+        '<model name="m"><pose>2 0 0 0 0 0</pose>'
+        f'<link name="wheel"><pose>0 1 0 0 0 0</pose><collision name="cw">{ball}'
+        "</collision></link>"
+        f'<link name="l2"><pose relative_to="j">0 0 0.5 0 0 0</pose>'
+        f'<collision name="c2">{ball}</collision></link>'
+        '<joint name="wheel" type="revolute"><parent>l2</parent>'
+        "<child>wheel</child></joint>"
+        '<joint name="world" type="fixed"><parent>world</parent>'
+        "<child>l2</child></joint>"
+        '<joint name="lost" type="fixed"><parent>l2</parent>'
+        "<child>gone::link</child></joint>"
+        '<joint name="j" type="revolute"><pose relative_to="wheel">1 0 0 0 0 0</pose>'
+        "<parent>wheel</parent><child>l2</child></joint></model>",
+    )
+    world = world_obstacles(path, "w.world")
+    got = {o.name.split("'")[-2]: o.position for o in world.obstacles}
+    np.testing.assert_allclose(got["cw"], [2.0, 1.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(got["c2"], [3.0, 1.0, 0.5], atol=1e-12)
+    assert world.notes == "read past 3 joints"
+
+
+def test_an_xml_declaration_after_a_blank_line_is_read_with_its_encoding(tmp_path):
+    """A blank line before the XML declaration (Gazebo's lunar pit model):
+    read, its encoding (Latin-1 here) kept, the lines unchanged."""
+    text = (
+        '\n<?xml version="1.0" encoding="ISO-8859-1"?>\n<!-- caf\xe9 -->\n'
+        '<sdf version="1.6"><world name="w">\n'
+        "<model name='m'><link name='l'>\n"
+        "<collision name='c'><geometry><box><size>1 1 x</size></box>\n"
+        "</geometry></collision></link></model></world></sdf>\n"
+    )
+    (tmp_path / "w.world").write_bytes(text.encode("latin-1"))
+    with pytest.raises(ValueError, match=r"w.world:6: .*size"):
+        world_obstacles(str(tmp_path / "w.world"), "w.world")
+
+
+def test_a_world_of_a_heightmap_or_a_light_alone_says_so(tmp_path):
+    """A terrain (<heightmap>) is not flown: a world holding nothing else
+    says what it read past instead of flying nothing; so does a file of a
+    light alone (Drake refused it: no <model> or <world>)."""
+    path = _world_file(
+        tmp_path,
+        '<model name="pit"><static>true</static><link name="l">'
+        '<collision name="c"><geometry><heightmap><uri>pit.png</uri>'
+        "<size>10 10 2</size></heightmap></geometry></collision></link></model>",
+    )
+    with pytest.raises(ValueError, match=r"^holds no collision geometry \(read past "):
+        world_obstacles(path, "w.world")
+    with pytest.raises(ValueError, match=r"1 heightmap"):
+        world_obstacles(path, "w.world")
+    # Gazebo's sun as a file of its own: one <light>, no model for Drake.
+    (tmp_path / "sun.sdf").write_text(
+        '<sdf version="1.5"><light type="directional" name="sun"/></sdf>'
+    )
+    with pytest.raises(
+        ValueError, match=r"^holds no collision geometry \(read past 1 light\)$"
+    ):
+        world_obstacles(str(tmp_path / "sun.sdf"), "sun.sdf")
+
+
 def test_a_state_inserts_and_deletes_models(tmp_path):
     """Gazebo's <insertions> add a model and <deletions> remove one."""
     with open(YARD) as f:

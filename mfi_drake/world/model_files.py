@@ -3,6 +3,7 @@ that name it), and the folders `model://`, `package://` and Fuel URIs
 name, found as Gazebo and ROS find them (`sdformat` resolves with these),
 and `Prepared`, what `sdformat.prepare` makes of a world file for Drake."""
 
+import codecs
 import os
 import re
 import xml.etree.ElementTree as ET
@@ -52,12 +53,17 @@ def read_xml(path: str, text: str | None = None) -> tuple[ET.Element, dict]:
 
 def _lenient(text: str | bytes) -> bytes:
     """`text` with "--" inside comments written "- " and an XML declaration
-    after a comment left out (XML forbids both; Gazebo's parser, TinyXML2,
-    reads them, and Gazebo's own example worlds hold them), the lines
-    unchanged."""
+    after a comment or a blank line moved to the start (XML forbids both;
+    Gazebo's parser, TinyXML2, reads them, and Gazebo's own example worlds
+    and models hold them), the lines unchanged: the declaration is one."""
     data = text.encode() if isinstance(text, str) else text
-    if not data.lstrip().startswith(b"<?xml"):  # a declaration after a comment
-        data = re.sub(rb"<\?xml[^>]*\?>", b"", data)
+    declaration = re.search(rb"<\?xml[^>]*\?>", data)
+    if declaration and declaration.start() > 0:
+        before = data[: declaration.start()]
+        bom = codecs.BOM_UTF8 if before.startswith(codecs.BOM_UTF8) else b""
+        rest = before[len(bom) :] + data[declaration.end() :]
+        # Kept, not dropped: it may name the file's encoding.
+        data = bom + declaration[0] + re.sub(rb"<\?xml[^>]*\?>", b"", rest)
     return re.sub(
         rb"<!--(.*?)-->",
         lambda m: b"<!--" + m[1].replace(b"--", b"- ") + b"-->",
@@ -162,7 +168,7 @@ def _version(text: str) -> tuple[int, ...]:
     return tuple(int(x) for x in re.findall(r"\d+", text))
 
 
-_SHOWN = "plugin light actor sensor visual gui heightmap population"
+_SHOWN = "plugin light actor sensor visual gui joint heightmap population"
 SHOWN = tuple(_SHOWN.split())  # in the one line (the last two: geometry not read)
 
 

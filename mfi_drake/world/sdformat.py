@@ -34,6 +34,7 @@ import math
 import os
 import re
 import xml.etree.ElementTree as ET
+from collections import Counter
 
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
@@ -51,6 +52,7 @@ from mfi_drake.world.model_files import (
 )
 
 MARK = re.compile(r"__mfi_(mesh|plane)_(\d+)__(.*)$")
+FRAMED = ("link", "model", "frame")  # what a model's frame names must not repeat
 CONVEX = "drake:declare_convex"  # Drake's: a mesh flown as its hull
 PART = 250  # models a part (Drake parses 250 in 0.1 s, 2000 in 8 s)
 # What Drake needs of SDFormat and URDF: the children and attributes kept.
@@ -61,7 +63,8 @@ SDF = {
         {"static", "pose", "link", "model", "include", "frame", "joint"},
         {"name"},
     ),
-    "joint": ({"pose", "child"}, {"name"}),  # kept as the frame it defines
+    # Kept as the frame it defines; its type and parent are not read.
+    "joint": ({"pose", "child"}, {"name", "type"}),
     "link": ({"pose", "collision"}, {"name"}),
     "collision": ({"pose", "geometry"}, {"name"}),
     "frame": ({"pose"}, {"name", "attached_to"}),
@@ -102,7 +105,8 @@ _KNOWN = (
     "magnetic_field atmosphere wind road population battery projector "
     "particle_emitter must_be_base_link heightmap polyline image submesh state "
     "gazebo transmission material limit axis axis2 dynamics safety_controller "
-    "calibration mimic contact uri name static placement_frame"
+    "calibration mimic contact uri name static placement_frame parent "
+    "thread_pitch gearbox_ratio gearbox_reference_body"
 )
 KNOWN = frozenset(_KNOWN.split())
 
@@ -151,6 +155,7 @@ class _Reader:
         self.out = Prepared()
         self.origins: dict[ET.Element, str] = {}
         self.including: list[str] = []
+        self.joint_frames: set[ET.Element] = set()  # `joint_frame`'s
 
     def keep(self, element: ET.Element, rules: dict, folder: str) -> ET.Element | None:
         """A copy of `element` with the children and attributes `rules`
@@ -196,6 +201,7 @@ class _Reader:
         if copy.tag == "model":
             if not any(c.tag in ("link", "model") for c in copy):
                 return None
+            self.loose_joints(copy)
             for old in copy.findall("static"):
                 copy.remove(old)
             static = ET.SubElement(copy, "static")
@@ -204,6 +210,23 @@ class _Reader:
         if copy.tag == "world":
             self.state(copy, element, folder)
         return copy
+
+    def loose_joints(self, model: ET.Element) -> None:
+        """Removes the frames of the model's joints SDFormat 1.7 and Drake
+        refuse but Gazebo Classic's 1.4–1.6 models hold (its own model
+        collection: a joint named as its child link, a joint named "world",
+        a child that names nothing): no pose can name such a frame
+        unambiguously, so it is read past as its joint would be."""
+        frames = [c for c in model if c in self.joint_frames]
+        names = Counter(c.get("name") for c in model if c.tag in FRAMED)
+        models = {c.get("name") for c in model if c.tag == "model"}
+        for frame in frames:
+            name, child = frame.get("name", ""), frame.get("attached_to", "")
+            reserved = name in ("", "world") or name.startswith("__")
+            known = names[child] > 0 or child.split("::")[0] in models
+            if reserved or names[name] > 1 or not known:
+                model.remove(frame)
+                self.out.read_past["joint"] += 1
 
     def joint_frame(self, joint: ET.Element) -> ET.Element:
         """An SDFormat joint of a static model as the frame it defines
@@ -220,6 +243,7 @@ class _Reader:
             pose.set("relative_to", child)
         frame.append(pose)
         self.origins[frame] = self.origins[pose] = self.origins[joint]
+        self.joint_frames.add(frame)
         return frame
 
     def state(self, world: ET.Element, source: ET.Element, folder: str) -> None:
@@ -449,6 +473,8 @@ def prepare(path: str, model_paths: list[str]) -> Prepared:
     reader.out.kind = "sdf" if rules is SDF else "urdf"
     kept = reader.keep(root, rules, os.path.dirname(path))
     out = reader.out
+    if not len(kept):  # nothing Drake reads (Gazebo's sun: a light alone)
+        return out
     for part in reader.parts(kept):
         ET.indent(part)
         out.texts.append(ET.tostring(part, encoding="unicode"))

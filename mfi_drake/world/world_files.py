@@ -165,9 +165,11 @@ def world_obstacles(
                 grounds.append(found)
             else:
                 obstacles += found
-    if not obstacles and not grounds:
-        raise ValueError("holds no collision geometry")
     notes = prepared.summary()
+    if not obstacles and not grounds:  # what it held instead, if anything
+        raise ValueError(
+            "holds no collision geometry" + (f" ({notes})" if notes else "")
+        )
     if heard.messages:
         # Drake names the text it parsed "<literal-string>.urdf" and its
         # line; a rewritten text's lines are no file's.
