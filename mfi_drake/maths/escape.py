@@ -571,6 +571,14 @@ def update_memory(
     ):
         memory[PHASE], memory[D_BEST], memory[T_BEST] = TOWARD, d, t
         return memory
+    _follow(memory, t, p, obstacle, goal, collision_radius, near, params, ground)
+    return memory
+
+
+def _follow(memory, t, p, obstacle, goal, collision_radius, near, params, ground):
+    """`update_memory` in FOLLOW, not leaving: a door seen is passed (PASS),
+    else the followed surface is recorded, and a loop back to the hit
+    point, or the ground in the way, exhausts the axis."""
     # The followable readings, once for the door, the record and the
     # followed point.
     candidates = _candidates(obstacle, p, axis(memory, goal), ground)
@@ -584,7 +592,7 @@ def update_memory(
         memory[DOOR], memory[DOOR_AXIS] = middle, through
         memory[PASSED] = middle
         memory[PHASE], memory[T_BEST] = PASS, t
-        return memory
+        return
     q = _followed(memory, candidates, p, near)
     if q is not None:
         memory[SURFACE], memory[SURFACE_SEEN] = q, 1.0
@@ -605,7 +613,6 @@ def update_memory(
     )
     if looped or grounded:
         _begin_axis(memory, int(memory[AXIS]) + 1, p, obstacle, goal, near, ground)
-    return memory
 
 
 def record_surfaces(memory: np.ndarray, p: np.ndarray, obstacle) -> None:

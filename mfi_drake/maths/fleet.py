@@ -110,6 +110,10 @@ def fleet_chain(
     `forces` (N, 3): a user's field's F_n of each vehicle (`user_forces`),
     flown as `PassThroughGoal` hands it on (`attract` is `no_goal_terms`);
     (0, 3): the method's field."""
+    # Over 80 lines: the loop's branches are the ways a vehicle reads its
+    # obstacles (a user's field, alone, alone among moving obstacles, in a
+    # fleet; each with or without the escape rule), all over the same two
+    # dozen arguments: apart, each would take them all again.
     centres, velocities = states[:, POSITION], states[:, VELOCITY]
     for k in range(len(states)):
         x, mode, goal = states[k], modes[k], goals[k]

@@ -139,57 +139,14 @@ class FleetChain(LeafSystem):
         self._radius = vehicle.collision_radius
         self._row_size = fleet.row_size(self.readings)
         self._forces = fleet.row_slices(self.readings)["propeller_force"]
-        # Compiled here, not within the flight: each function's entry for
-        # the types every later call passes (`compiled.specialised`).
-        functions = compiled.compiled(fleet)
-        self._field = compiled.compiled_form(field)
-        at_rest = np.zeros((n, STATE_SIZE))
-        self._no_scene = np.zeros((n, signal))
-        self._no_velocity = np.zeros((n, velocity))  # no estimate
         self._moving = bool(moving)
-        self._no_forces = np.zeros((0, 3))  # the method's field, no user's
         self._user = None
         if user is not None:
             self._user = UserForces(user, n, self._radius, sensor_radius, self.readings)
-        self._chain = compiled.specialised(
-            functions.fleet_chain,
-            self._field,
-            at_rest,
-            self._no_scene,
-            self._no_velocity,
-            self._moving,
-            np.zeros(n),
-            self._goals,
-            *self._constants,
-            np.zeros((n, self._memory_size)),
-            *self._escape,
-            self._no_forces,
-            np.zeros((n, self._row_size)),
-        )
-        if rule is not None:
-            self._update_memories = compiled.specialised(
-                compiled.compiled(escape).fleet_memories,
-                np.zeros((n, self._memory_size)),
-                0.0,
-                at_rest,
-                self._no_scene,
-                self._goals,
-                vehicle.collision_radius,
-                self._rule,
-                self._ground,
-            )
         # Eq 21's modes switch with MFI's selector only; the baselines'
         # attraction stays in PD.
         self._selects = attract is fields.goal_terms
-        if self._selects:
-            self._next_modes = compiled.specialised(
-                functions.fleet_modes,
-                at_rest,
-                self._goals,
-                np.zeros(n),
-                self._params,
-                np.zeros(n),
-            )
+        self._compile(field, signal, velocity)
         self._states = self.DeclareVectorInputPort("states", STATE_SIZE * n)
         tickets = {self._states.ticket()}
         self._scene = None
@@ -235,6 +192,53 @@ class FleetChain(LeafSystem):
             lambda context, out: out.SetFromVector(self._rows(context)[0].ravel()),
             prerequisites_of_calc=tickets,
         )
+
+    def _compile(self, field, signal: int, velocity: int) -> None:
+        """Compiled here, not within the flight: each function's entry for
+        the types every later call passes (`compiled.specialised`)."""
+        n = len(self._goals)
+        functions = compiled.compiled(fleet)
+        self._field = compiled.compiled_form(field)
+        at_rest = np.zeros((n, STATE_SIZE))
+        self._no_scene = np.zeros((n, signal))
+        self._no_velocity = np.zeros((n, velocity))  # no estimate
+        self._no_forces = np.zeros((0, 3))  # the method's field, no user's
+        self._chain = compiled.specialised(
+            functions.fleet_chain,
+            self._field,
+            at_rest,
+            self._no_scene,
+            self._no_velocity,
+            self._moving,
+            np.zeros(n),
+            self._goals,
+            *self._constants,
+            np.zeros((n, self._memory_size)),
+            *self._escape,
+            self._no_forces,
+            np.zeros((n, self._row_size)),
+        )
+        if self._rule is not None:
+            self._update_memories = compiled.specialised(
+                compiled.compiled(escape).fleet_memories,
+                np.zeros((n, self._memory_size)),
+                0.0,
+                at_rest,
+                self._no_scene,
+                self._goals,
+                self._radius,
+                self._rule,
+                self._ground,
+            )
+        if self._selects:
+            self._next_modes = compiled.specialised(
+                functions.fleet_modes,
+                at_rest,
+                self._goals,
+                np.zeros(n),
+                self._params,
+                np.zeros(n),
+            )
 
     def _initialize(self, context, state):
         """Eq 21's modes from scratch and the escape rule's first memories
