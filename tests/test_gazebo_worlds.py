@@ -22,6 +22,7 @@ from mfi_drake.world.validation import load_scenario
 from mfi_drake.world.world_files import world_obstacles
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+ROOT_DATA_MESHES = os.path.join(DATA, "meshes")
 MODELS = os.path.join(DATA, "gazebo", "models")
 YARD = os.path.join(DATA, "gazebo", "worlds", "yard.world")
 HEAD = """\
@@ -386,6 +387,75 @@ def test_a_mujoco_scene_is_its_geoms(tmp_path):
         np.testing.assert_allclose(found[name].position, position, atol=1e-12)
         np.testing.assert_allclose(found[name].rpy_deg, [0, 0, yaw], atol=1e-9)
     assert scenario.ground == sc.Ground(height=0.0)
+
+
+def test_a_mujoco_file_pybullet_ships_is_still_its_geoms(tmp_path):
+    """PyBullet's MJCF files as it ships them: no model name, a joint of a
+    type only PyBullet reads ("fixed"), an actuator and a tendon naming
+    joints Drake never made. Each body is where the file puts it: the
+    geoms' poses written by hand."""
+    (tmp_path / "m.xml").write_text(
+        "<mujoco><option timestep='0.01'/><worldbody>"
+        "<geom name='floor' type='plane' size='5 5 0.1'/>"
+        "<body name='torso' pos='2 0 1'><joint name='root' type='fixed'/>"
+        "<geom name='torso' type='sphere' size='0.3'/>"
+        "<body name='leg' pos='0 0.5 0'><joint name='hip' type='hinge'/>"
+        "<geom name='leg' type='box' pos='0 0 -0.4' size='0.1 0.1 0.4'/>"
+        "</body></body></worldbody>"
+        "<tendon><fixed name='t'><joint coef='1' joint='knee'/></fixed></tendon>"
+        "<actuator><motor joint='wrist' gear='10'/></actuator></mujoco>"
+    )
+    world = world_obstacles(str(tmp_path / "m.xml"), "m.xml")
+    found = {o.name.split("geometry ")[1].strip("'"): o for o in world.obstacles}
+    assert found["torso"].shape == sc.Sphere(radius=0.3)
+    np.testing.assert_allclose(found["torso"].position, [2.0, 0.0, 1.0], atol=1e-12)
+    assert found["leg"].shape == sc.Box(size=[0.2, 0.2, 0.8])
+    np.testing.assert_allclose(found["leg"].position, [2.0, 0.5, 0.6], atol=1e-12)
+    assert world.ground == 0.0 and world.notes.startswith("read past 2 joints"), world.notes
+
+
+def test_a_pybullet_urdf_as_shipped_loads(tmp_path):
+    """PyBullet's leniencies: a robot named "" (its humanoid.urdf), an
+    implicit plane (plane_implicit.urdf: the ground), a mesh scale of four
+    numbers (racecar: the first three read, as PyBullet does), a link
+    named "world" (its grippers), two collisions of one name."""
+    box = os.path.join(ROOT_DATA_MESHES, "box_binary.stl")  # 1 × 2 × 0.5 m
+    (tmp_path / "r.urdf").write_text(
+        '<robot name=""><link name="world"><collision><origin xyz="0 0 -1"/>'
+        '<geometry><plane normal="0 0 1"/></geometry></collision></link>'
+        '<link name="base"><collision name="c"><origin xyz="3 0 1"/><geometry>'
+        '<box size="1 1 1"/></geometry></collision><collision name="c">'
+        f'<origin xyz="6 0 1"/><geometry><mesh filename="{box}" scale="2 1 1 1"/>'
+        "</geometry></collision></link>"
+        '<joint name="j" type="fixed"><parent link="world"/><child link="base"/>'
+        "</joint></robot>"
+    )
+    world = world_obstacles(str(tmp_path / "r.urdf"), "r.urdf")
+    assert world.ground == -1.0
+    cube, *pieces = world.obstacles
+    assert cube.shape == sc.Box(size=[1.0, 1.0, 1.0]) and cube.position == [3, 0, 1]
+    # The mesh at scale (2, 1, 1): x over [6, 8], y over [0, 2], z over [1, 1.5].
+    corners = _corners(pieces)
+    np.testing.assert_allclose(corners.min(axis=0), [6.0, 0.0, 1.0], atol=1e-9)
+    np.testing.assert_allclose(corners.max(axis=0), [8.0, 2.0, 1.5], atol=1e-9)
+
+
+def test_a_gazebo_link_named_world_and_repeated_collision_names_load(tmp_path):
+    """SDFormat as PyBullet's grippers and Gazebo's kiva shelf ship it: a
+    link named "world", and one link's collisions all named alike: each
+    collision flies where the file puts it."""
+    ball = "<geometry><sphere><radius>0.2</radius></sphere></geometry>"
+    path = _world_file(
+        tmp_path,
+        '<model name="m"><link name="world"><collision name="c">'
+        f"<pose>1 0 0 0 0 0</pose>{ball}</collision></link>"
+        '<link name="shelf"><collision name="pod"><pose>2 0 0 0 0 0</pose>'
+        f'{ball}</collision><collision name="pod"><pose>3 0 0 0 0 0</pose>'
+        f"{ball}</collision></link></model>",
+    )
+    world = world_obstacles(path, "w.world")
+    xs = sorted(o.position[0] for o in world.obstacles)
+    assert xs == [1.0, 2.0, 3.0]
 
 
 def test_world_pose_places_a_cloud(tmp_path):

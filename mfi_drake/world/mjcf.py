@@ -9,6 +9,9 @@
   SceneGraph (Drake #19263, docs/big_scenes.md);
 - a geom that collides with nothing (`contype` and `conaffinity` 0, written
   or from its default class: MuJoCo Menagerie's visual meshes) is left out;
+- joints, and the sections of the dynamics (actuators, tendons, equality
+  constraints, sensors, keyframes, contact pairs), are left out: the scene
+  is flown still, each body where the file (and MuJoCo's qpos0) puts it;
 - a mesh geom becomes a placeholder box marked as a mesh, its file (from
   `<compiler meshdir assetdir>`, as MuJoCo reads it) and scale (the
   asset's, else its default class's) listed: `world_files` flies its
@@ -25,6 +28,12 @@ from mfi_drake.world.model_files import read_xml
 
 MAX_DEPTH = 32  # includes nested deeper are a loop
 _FOLDERS = ("assetdir", "meshdir", "texturedir")
+_JOINTS = ("joint", "freejoint")  # in a body, or a <default>'s
+# The sections that drive, couple, measure or pose the joints, pair geoms
+# for contact or set the simulator and viewer: none is read by a flight
+# (Drake warned of most of the settings, dozens of lines a file).
+_DYNAMICS = ("actuator", "tendon", "equality", "sensor", "keyframe", "contact")
+_DYNAMICS += ("option", "size", "statistic", "visual", "custom", "extension")
 
 
 def _inline(root: ET.Element, origins: dict, folder: str, chain: list[str]) -> None:
@@ -108,14 +117,17 @@ def _mesh_assets(root: ET.Element, folder: str) -> dict[str, tuple[str, list]]:
 
 def rewrite_mjcf(
     path: str, root: ET.Element, origins: dict
-) -> tuple[str, list, list, int]:
+) -> tuple[str, list, list, int, int]:
     """The MJCF file `path` (parsed: `root`, `origins`) rewritten as the
     module says: (its text, each plane's normal in its geom's frame and
     "file:line", each mesh's (file, scale per axis, "file:line"), how many
-    geoms that collide with nothing were left out). Raises ValueError, one
-    line naming the file and line."""
+    geoms that collide with nothing were left out, how many joints).
+    Raises ValueError, one line naming the file and line."""
     folder = os.path.dirname(os.path.abspath(path))
     _inline(root, origins, folder, [os.path.abspath(path)])
+    if not root.get("model", "").strip():  # Drake needs a name; MuJoCo not
+        root.set("model", os.path.splitext(os.path.basename(path))[0])
+    moved = _stilled(root)
     classes = _defaults(root, "geom")
     assets = _mesh_assets(root, _mesh_folder(root, folder))
     planes, meshes, visual = [], [], 0
@@ -146,7 +158,26 @@ def rewrite_mjcf(
                     size="0.5 0.5 0.5",
                     name=f"__mfi_mesh_{len(meshes) - 1}__{geom.get('name', 'mesh')}",
                 )
-    return ET.tostring(root, encoding="unicode"), planes, meshes, visual
+    return ET.tostring(root, encoding="unicode"), planes, meshes, visual, moved
+
+
+def _stilled(root: ET.Element) -> int:
+    """Leaves out what moves the scene, which a flight among its geoms never
+    reads: joints (each body then sits where the file puts it, which is
+    where MuJoCo's qpos0 does) and the sections of the dynamics (actuators,
+    tendons, equality constraints, sensors, keyframes, contact pairs).
+    Drake's parser refused
+    scenes for them: an actuator of a joint it had not made (PyBullet's
+    MPL hand), a joint type only PyBullet reads ("fixed"). Returns how many
+    joints were left out."""
+    for section in [c for c in root if c.tag in _DYNAMICS]:
+        root.remove(section)
+    joints = 0
+    for parent in list(root.iter()):
+        for child in [c for c in parent if c.tag in _JOINTS]:
+            joints += parent.tag == "body"  # a <default>'s is no joint
+            parent.remove(child)
+    return joints
 
 
 def _mesh(geom: ET.Element, name: str, assets: dict, origins: dict, path: str) -> tuple:

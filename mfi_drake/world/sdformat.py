@@ -85,8 +85,9 @@ URDF = {
     "robot": ({"link", "joint"}, {"name"}),
     "link": ({"collision"}, {"name"}),
     "collision": ({"origin", "geometry"}, {"name"}),
-    "geometry": ({"box", "sphere", "cylinder", "capsule", "mesh"}, set()),
+    "geometry": ({"box", "sphere", "cylinder", "capsule", "mesh", "plane"}, set()),
     "box": (set(), {"size"}),
+    "plane": (set(), {"normal"}),  # PyBullet's
     "sphere": (set(), {"radius"}),
     "cylinder": (set(), {"radius", "length"}),
     "capsule": (set(), {"radius", "length"}),
@@ -198,6 +199,12 @@ class _Reader:
             copy.set("type", "fixed")
         elif copy.tag == "joint":  # a static model's: the frame poses may name
             return self.joint_frame(copy)
+        if copy.tag == "link":
+            self.unrepeated(copy)
+        if copy.tag == "robot" and not copy.get("name", "").strip():
+            # PyBullet reads a robot named "" (its humanoid.urdf); Drake
+            # would abort: it is named by its file.
+            copy.set("name", os.path.splitext(os.path.basename(self.path))[0])
         if copy.tag == "model":
             if not any(c.tag in ("link", "model") for c in copy):
                 return None
@@ -210,6 +217,21 @@ class _Reader:
         if copy.tag == "world":
             self.state(copy, element, folder)
         return copy
+
+    def unrepeated(self, link: ET.Element) -> None:
+        """Names a link "world" (PyBullet's grippers fix their base so) and
+        its collisions that repeat a name (Gazebo's kiva shelf: ten
+        "pod_collision") apart, as Gazebo and PyBullet read them; SDFormat
+        reserves the one and Drake refuses the others."""
+        if link.get("name") == "world":
+            link.set("name", "world_link")
+        seen: Counter = Counter()
+        for collision in link.findall("collision"):
+            name = collision.get("name")
+            if name is not None:
+                seen[name] += 1
+                if seen[name] > 1:
+                    collision.set("name", f"{name}_{seen[name]}")
 
     def loose_joints(self, model: ET.Element) -> None:
         """Removes the frames of the model's joints SDFormat 1.7 and Drake
@@ -378,7 +400,9 @@ class _Reader:
         shape = geometry[0]
         where = self.origins[shape]
         if shape.tag == "plane":
-            normal = _numbers(shape.findtext("normal") or "0 0 1", where, "a normal")
+            # SDFormat's <normal>, PyBullet's URDF normal= (plane_implicit).
+            written = shape.findtext("normal") or shape.get("normal") or "0 0 1"
+            normal = _numbers(written, where, "a normal")
             if len(normal) != 3 or not any(normal):
                 raise ValueError(f"{where}: a plane's normal must be 3 numbers, not 0")
             self.out.planes.append((normal, where))
@@ -397,6 +421,8 @@ class _Reader:
             return element
         scale = shape.findtext("scale") or shape.get("scale") or "1"
         scale = _numbers(scale, where, "a mesh's scale")
+        if self.out.kind == "urdf" and len(scale) > 3:
+            scale = scale[:3]  # PyBullet's reading (racecar: "1 1 1 1")
         if len(scale) not in (1, 3):
             raise ValueError(f"{where}: a mesh's scale must hold 1 or 3 numbers")
         self.out.meshes.append((path, scale, where))
@@ -459,9 +485,9 @@ def prepare(path: str, model_paths: list[str]) -> Prepared:
     root, origins = read_xml(path)
     rules = {"sdf": SDF, "robot": URDF}.get(root.tag)
     if root.tag == "mujoco":
-        text, planes, meshes, visual = rewrite_mjcf(path, root, origins)
+        text, planes, meshes, visual, joints = rewrite_mjcf(path, root, origins)
         out = Prepared(texts=[text], kind="mjcf", planes=planes, meshes=meshes)
-        out.read_past["visual"] = visual
+        out.read_past["visual"], out.read_past["joint"] = visual, joints
         return out
     if rules is None:
         raise ValueError(

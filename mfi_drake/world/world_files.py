@@ -113,7 +113,8 @@ def _parse(
         parser = Parser(plant)
         kind = "xml" if prepared.kind == "mjcf" else prepared.kind
         return parser.AddModelsFromString(prepared.texts[part], kind)
-    except (RuntimeError, SystemExit) as e:  # SystemExit: a failed Drake check
+    # SystemExit: a failed Drake check; ValueError: a bad number in a URDF.
+    except (RuntimeError, ValueError, SystemExit) as e:
         lines = [line for line in str(e).splitlines() if line.strip()] or ["?"]
         cause = lines[0]
         found = re.search(r":(\d+): (?:error: )?(.*)", cause)
