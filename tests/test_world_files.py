@@ -231,11 +231,20 @@ def test_a_convex_mesh_of_a_world_is_its_hull_inline(tmp_path):
 
 
 NO_COLLISION = SDF.split("<collision")[0] + "</link>\n  </model>\n</sdf>\n"
+XACRO = (
+    '<robot name="r"><link name="a"><collision><geometry><box size="1 1 1"/>'
+    '</geometry></collision></link><link name="b"/><joint name="j" type="fixed">'
+    '<origin xyz="$(optenv IMU_XYZ 0 0 1)"/><parent link="a"/><child link="b"/>'
+    "</joint></robot>"
+)
 BAD_WORLDS = [
     ("missing", None, "w.sdf", "no such file"),
     ("not xml", "<sdf version='1.9'><model", "w.sdf", "w.sdf:1: not well-formed XML"),
     ("no collision", NO_COLLISION, "w.sdf", "holds no collision geometry"),
     ("suffix", SDF, "w.txt", "must be a Gazebo world or model (.world, .sdf)"),
+    # An unprocessed xacro (PyBullet's husky): Drake's parser raises a
+    # ValueError, named by its file here.
+    ("xacro", XACRO, "w.urdf", "w.urdf: Expected 3 values for attribute xyz"),
 ]
 
 
