@@ -273,21 +273,10 @@ def test_an_xml_declaration_after_a_blank_line_is_read_with_its_encoding(tmp_pat
         world_obstacles(str(tmp_path / "w.world"), "w.world")
 
 
-def test_a_world_of_a_heightmap_or_a_light_alone_says_so(tmp_path):
-    """A terrain (<heightmap>) is not flown: a world holding nothing else
-    says what it read past instead of flying nothing; so does a file of a
-    light alone (Drake refused it: no <model> or <world>)."""
-    path = _world_file(
-        tmp_path,
-        '<model name="pit"><static>true</static><link name="l">'
-        '<collision name="c"><geometry><heightmap><uri>pit.png</uri>'
-        "<size>10 10 2</size></heightmap></geometry></collision></link></model>",
-    )
-    with pytest.raises(ValueError, match=r"^holds no collision geometry \(read past "):
-        world_obstacles(path, "w.world")
-    with pytest.raises(ValueError, match=r"1 heightmap"):
-        world_obstacles(path, "w.world")
-    # Gazebo's sun as a file of its own: one <light>, no model for Drake.
+def test_a_light_alone_says_so_and_a_terrain_without_its_image_names_it(tmp_path):
+    """A file of a light alone (Gazebo's sun; Drake refused it: no <model>
+    or <world>) says what it read past; a terrain whose image is missing,
+    or no image, is one line naming the file's line."""
     (tmp_path / "sun.sdf").write_text(
         '<sdf version="1.5"><light type="directional" name="sun"/></sdf>'
     )
@@ -295,6 +284,17 @@ def test_a_world_of_a_heightmap_or_a_light_alone_says_so(tmp_path):
         ValueError, match=r"^holds no collision geometry \(read past 1 light\)$"
     ):
         world_obstacles(str(tmp_path / "sun.sdf"), "sun.sdf")
+    heightmap = (
+        '<model name="pit"><static>true</static><link name="l">'
+        '<collision name="c"><geometry><heightmap><uri>pit.png</uri>'
+        "<size>10 10 2</size></heightmap></geometry></collision></link></model>"
+    )
+    path = _world_file(tmp_path, heightmap)
+    with pytest.raises(ValueError, match=r"w.world:1: heightmap 'pit.png': no such"):
+        world_obstacles(path, "w.world")
+    (tmp_path / "pit.png").write_text("version https://git-lfs.github.com/spec/v1\n")
+    with pytest.raises(ValueError, match=r"pit.png: not readable as an image"):
+        world_obstacles(path, "w.world")
 
 
 def test_a_state_inserts_and_deletes_models(tmp_path):
@@ -411,7 +411,9 @@ def test_a_mujoco_file_pybullet_ships_is_still_its_geoms(tmp_path):
     np.testing.assert_allclose(found["torso"].position, [2.0, 0.0, 1.0], atol=1e-12)
     assert found["leg"].shape == sc.Box(size=[0.2, 0.2, 0.8])
     np.testing.assert_allclose(found["leg"].position, [2.0, 0.5, 0.6], atol=1e-12)
-    assert world.ground == 0.0 and world.notes.startswith("read past 2 joints"), world.notes
+    assert world.ground == 0.0 and world.notes.startswith("read past 2 joints"), (
+        world.notes
+    )
 
 
 def test_a_pybullet_urdf_as_shipped_loads(tmp_path):
@@ -456,6 +458,72 @@ def test_a_gazebo_link_named_world_and_repeated_collision_names_load(tmp_path):
     world = world_obstacles(path, "w.world")
     xs = sorted(o.position[0] for o in world.obstacles)
     assert xs == [1.0, 2.0, 3.0]
+
+
+def _heightmap_world(tmp_path, pixels, pose="0 0 0 0 0 0") -> str:
+    """A world of one terrain: `pixels` (rows, columns; uint8 or uint16) as
+    its PNG, 16 × 16 × 4 m centred at (1, 2, 0.5) in a model at `pose`."""
+    from PIL import Image
+
+    Image.fromarray(pixels).save(tmp_path / "hill.png")
+    return _world_file(
+        tmp_path,
+        f'<model name="terrain"><static>true</static><pose>{pose}</pose>'
+        '<link name="l"><collision name="c"><geometry><heightmap>'
+        "<uri>hill.png</uri><size>16 16 4</size><pos>1 2 0.5</pos>"
+        "<texture><diffuse>x.png</diffuse></texture>"
+        "</heightmap></geometry></collision></link></model>",
+    )
+
+
+def _extent(obstacles: list[sc.Obstacle]) -> np.ndarray:
+    """[[x, y, z] lowest, [x, y, z] highest] over boxes turned 0° or 90°."""
+    lows, highs = [], []
+    for o in obstacles:
+        half = np.abs(_rotation(o.rpy_deg)) @ np.asarray(o.shape.size) / 2
+        lows.append(np.asarray(o.position) - half)
+        highs.append(np.asarray(o.position) + half)
+    return np.array([np.min(lows, axis=0), np.max(highs, axis=0)])
+
+
+def test_a_heightmap_is_its_ground_and_columns_as_gazebo_reads_it(tmp_path):
+    """Gazebo's reading, by hand: 17 × 17 pixels over 16 × 16 m (a pixel a
+    metre), the image's top row at +y; one white pixel (row 4, column 12)
+    is x = 1 − 8 + 12 = 5, y = 2 + 8 − 4 = 6, 4 m above pos z = 0.5. The
+    four cells around it are columns 1 × 1 × 4 m standing on the ground at
+    0.5; the flat cells have none. Placed by its model (x = 10, z = 1, yaw
+    90°: (x, y) → (10 − y, x)), and the same from a 16-bit image."""
+    pixels = np.zeros((17, 17), np.uint8)
+    pixels[4, 12] = 255
+    world = world_obstacles(_heightmap_world(tmp_path, pixels), "w.world")
+    assert world.ground == 0.5 and len(world.obstacles) == 4
+    assert all(o.shape.size == [1.0, 1.0, 4.0] for o in world.obstacles)
+    np.testing.assert_allclose(
+        _extent(world.obstacles), [[4, 5, 0.5], [6, 7, 4.5]], atol=1e-12
+    )
+    wide = np.zeros((17, 17), np.uint16)
+    wide[4, 12] = 32768  # half of 16-bit's largest: 2 m
+    placed = world_obstacles(
+        _heightmap_world(tmp_path, wide, "10 0 1 0 0 1.5707963267948966"), "w"
+    )
+    assert placed.ground == pytest.approx(1.5) and len(placed.obstacles) == 4
+    np.testing.assert_allclose(
+        _extent(placed.obstacles),
+        [[3, 4, 1.5], [5, 6, 1.5 + 4 * 32768 / 65535]],
+        atol=1e-9,
+    )
+
+
+def test_a_terrain_is_flown_over_or_round(tmp_path):
+    """A hill 2.4 m high across the way (a ridge of the image's middle
+    columns): the vehicle reaches the goal beyond it without contact."""
+    pixels = np.zeros((17, 17), np.uint8)
+    pixels[2:15, 7:10] = 153  # 0.6 of 4 m, x over [−0.5, 2.5] before placing
+    path = _heightmap_world(tmp_path, pixels, "3 -2 -0.5 0 0 0")
+    scenario = load_scenario(_yaml(tmp_path, path))
+    assert scenario.ground == sc.Ground(height=0.0)
+    flight = simulate(scenario)
+    assert flight.metrics["success"] and flight.metrics["min_clearance"] > 0.0
 
 
 def test_world_pose_places_a_cloud(tmp_path):

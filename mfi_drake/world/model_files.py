@@ -176,9 +176,9 @@ SHOWN = tuple(_SHOWN.split())  # in the one line (the last two: geometry not rea
 class Prepared:
     """A world file rewritten for Drake: `texts` in format `kind` ("sdf",
     "urdf"), each parsed apart (a world's models in parts: Drake's parse
-    time grows as their number squared), the collision meshes and planes
-    its placeholders number, what was read past, and where each element of
-    each text came from."""
+    time grows as their number squared), the collision meshes, planes and
+    terrains its placeholders number, what was read past, and where each
+    element of each text came from."""
 
     texts: list[str] = field(default_factory=list)
     kind: str = "sdf"
@@ -186,6 +186,10 @@ class Prepared:
     # each plane's: its normal (in its collision's frame) and "file:line".
     meshes: list[tuple[str, list[float], str]] = field(default_factory=list)
     planes: list[tuple[list[float], str]] = field(default_factory=list)
+    # Each terrain's: its image, <size>, <pos> and "file:line".
+    heightmaps: list[tuple[str, list[float], list[float], str]] = field(
+        default_factory=list
+    )
     # Each mesh's convex pieces once decomposed, by `decomposition.mesh_key`
     # (`world_files` fills it).
     pieces: dict = field(default_factory=dict)

@@ -51,7 +51,7 @@ from mfi_drake.world.model_files import (
     read_xml,
 )
 
-MARK = re.compile(r"__mfi_(mesh|plane)_(\d+)__(.*)$")
+MARK = re.compile(r"__mfi_(mesh|plane|heightmap)_(\d+)__(.*)$")
 FRAMED = ("link", "model", "frame")  # what a model's frame names must not repeat
 CONVEX = "drake:declare_convex"  # Drake's: a mesh flown as its hull
 PART = 250  # models a part (Drake parses 250 in 0.1 s, 2000 in 8 s)
@@ -69,9 +69,11 @@ SDF = {
     "collision": ({"pose", "geometry"}, {"name"}),
     "frame": ({"pose"}, {"name", "attached_to"}),
     "geometry": (
-        {"box", "sphere", "cylinder", "capsule", "ellipsoid", "mesh", "plane"},
+        {"box", "sphere", "cylinder", "capsule", "ellipsoid", "mesh", "plane"}
+        | {"heightmap"},
         set(),
     ),
+    "heightmap": ({"uri", "size", "pos"}, set()),  # `world.terrain`'s
     "box": ({"size"}, set()),
     "sphere": ({"radius"}, set()),
     "cylinder": ({"radius", "length"}, set()),
@@ -106,7 +108,8 @@ _KNOWN = (
     "magnetic_field atmosphere wind road population battery projector "
     "particle_emitter must_be_base_link heightmap polyline image submesh state "
     "gazebo transmission material limit axis axis2 dynamics safety_controller "
-    "calibration mimic contact uri name static placement_frame parent "
+    "calibration mimic contact uri name static placement_frame parent texture "
+    "blend use_terrain_paging sampling "
     "thread_pitch gearbox_ratio gearbox_reference_body"
 )
 KNOWN = frozenset(_KNOWN.split())
@@ -407,6 +410,8 @@ class _Reader:
                 raise ValueError(f"{where}: a plane's normal must be 3 numbers, not 0")
             self.out.planes.append((normal, where))
             return self.placeholder(element, f"plane_{len(self.out.planes) - 1}")
+        if shape.tag == "heightmap":
+            return self.heightmap(element, shape, folder, where)
         if shape.tag != "mesh":
             return element
         uri = (shape.findtext("uri") or shape.get("filename") or "").strip()
@@ -455,6 +460,24 @@ class _Reader:
             part.extend(models[k : k + PART])
             parts.append(sdf)
         return parts
+
+    def heightmap(
+        self, collision: ET.Element, shape: ET.Element, folder: str, where: str
+    ) -> ET.Element:
+        """A terrain's placeholder; its image, size and pos listed for
+        `world.terrain` (the image read there)."""
+        uri = (shape.findtext("uri") or "").strip()
+        path = self.resolve(uri, folder, where)
+        if not os.path.isfile(path):
+            raise ValueError(f"{where}: heightmap {uri!r}: no such file ({path})")
+        size = _numbers(shape.findtext("size") or "1 1 1", where, "a heightmap's size")
+        pos = _numbers(shape.findtext("pos") or "0 0 0", where, "a heightmap's pos")
+        if len(size) != 3 or min(size) <= 0.0 or len(pos) != 3:
+            raise ValueError(
+                f"{where}: a heightmap's size must be 3 positive numbers, its pos 3"
+            )
+        self.out.heightmaps.append((path, size, pos, where))
+        return self.placeholder(collision, f"heightmap_{len(self.out.heightmaps) - 1}")
 
     def placeholder(self, collision: ET.Element, mark: str) -> ET.Element:
         """`collision` with a unit box for its shape, renamed with `mark`

@@ -47,6 +47,7 @@ from mfi_drake.world.decomposition import (
 from mfi_drake.world.model_files import Prepared
 from mfi_drake.world.point_clouds import with_map
 from mfi_drake.world.sdformat import MARK, prepare
+from mfi_drake.world.terrain import read_heights, terrain_columns
 
 WORLD_SUFFIXES = (".sdf", ".world", ".urdf", ".xml", ".mjcf")
 # Decimals of a degree that a pose's roll, pitch and yaw are read to: the
@@ -161,11 +162,9 @@ def world_obstacles(
     heard = _DrakeWarnings()
     obstacles, grounds = [], []
     for part in range(len(prepared.texts)):
-        for found in _part(path, prepared, part, heard, X_SW, label):
-            if isinstance(found, float):
-                grounds.append(found)
-            else:
-                obstacles += found
+        for found, ground in _part(path, prepared, part, heard, X_SW, label):
+            obstacles += found
+            grounds += [] if ground is None else [ground]
     notes = prepared.summary()
     if not obstacles and not grounds:  # what it held instead, if anything
         raise ValueError(
@@ -187,9 +186,10 @@ def _part(
     heard: _DrakeWarnings,
     X_SW: RigidTransform,
     label: str,
-) -> list[list[sc.Obstacle] | float]:
+) -> list[tuple[list[sc.Obstacle], float | None]]:
     """Each collision geometry of one part of a prepared file, parsed into
-    a throwaway plant: its obstacles, or its height for a plane."""
+    a throwaway plant: its obstacles and the ground's height it makes
+    (`_obstacles`)."""
     # Imported here: pydrake.multibody's import costs ~0.2 s that a scenario
     # without a world does not pay.
     from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
@@ -229,9 +229,11 @@ def _pose(plant, context, inspector, geometry) -> RigidTransform:
 
 def _obstacles(
     plant, inspector, geometry, X_SG: RigidTransform, prepared: Prepared, label: str
-) -> list[sc.Obstacle] | float:
-    """One collision geometry, at X_SG in the scenario, as obstacles (a
-    mesh: its convex pieces), or a plane facing up as its height."""
+) -> tuple[list[sc.Obstacle], float | None]:
+    """One collision geometry, at X_SG in the scenario: (its obstacles (a
+    mesh: its convex pieces; a terrain: its columns), the height of the
+    ground it makes (a plane facing up, a terrain's lowest level) or
+    None)."""
     body = plant.GetBodyFromFrameId(inspector.GetFrameId(geometry))
     model = plant.GetModelInstanceName(body.model_instance())
     name = inspector.GetName(geometry).removeprefix(f"{model}::")
@@ -245,11 +247,13 @@ def _obstacles(
         n_S = X_SG.rotation().matrix() @ normal
         n_S = n_S / np.linalg.norm(n_S)
         if n_S[2] >= 1.0 - 1e-9:
-            return float(X_SG.translation()[2])
+            return [], float(X_SG.translation()[2])
         # A plane not facing up: a slab under it (the ground is horizontal).
         p_S = X_SG.translation() - n_S * SLAB[2] / 2
         X_SG = RigidTransform(RotationMatrix.MakeFromOneVector(n_S, 2), p_S)
         shape = Box(*SLAB)
+    if mark and mark[1] == "heightmap":
+        return _terrain(prepared.heightmaps[int(mark[2])], X_SG, where)
     if type(shape) not in (*_SHAPES, Mesh):
         raise ValueError(
             f"model {model!r} geometry {name!r}: a {type(shape).__name__} "
@@ -269,11 +273,36 @@ def _obstacles(
             else (str(shape.source().path()), shape.scale3(), "")
         )
         try:
-            return mesh_obstacles(obstacle, path, scale, where, prepared.pieces)
+            return mesh_obstacles(obstacle, path, scale, where, prepared.pieces), None
         except ValueError as e:
             cause = f"model {model!r} geometry {name!r}: {e}"
             raise ValueError(f"{origin}: {cause}" if origin else cause) from None
-    return [dataclasses.replace(obstacle, shape=_SHAPES[type(shape)](shape))]
+    return [dataclasses.replace(obstacle, shape=_SHAPES[type(shape)](shape))], None
+
+
+def _terrain(
+    heightmap: tuple, X_SG: RigidTransform, where: str
+) -> tuple[list[sc.Obstacle], float]:
+    """A terrain's columns at X_SG in the scenario, and its lowest level
+    the ground (`world.terrain`): its frame must face up, as the ground
+    does."""
+    path, size, pos, origin = heightmap
+    if X_SG.rotation().matrix()[2, 2] < 1.0 - 1e-9:
+        raise ValueError(f"{origin}: {where}: a heightmap must face up (+z)")
+    try:
+        ground, columns = terrain_columns(read_heights(path), size, pos)
+    except ValueError as e:
+        raise ValueError(f"{origin}: heightmap {path}: {e}") from None
+    yaw = [0.0, 0.0, float(np.degrees(RollPitchYaw(X_SG.rotation()).yaw_angle()))]
+    return [
+        sc.Obstacle(
+            shape=sc.Box(size=box),
+            position=[float(x) for x in X_SG.multiply(np.asarray(centre))],
+            rpy_deg=[round(a, RPY_DECIMALS) + 0.0 for a in yaw],
+            name=f"{where} column {k}",
+        )
+        for k, (centre, box) in enumerate(columns)
+    ], float(X_SG.translation()[2] + ground)
 
 
 def _placed(points: list[list[float]], X_SW: RigidTransform) -> list[list[float]]:
