@@ -132,6 +132,17 @@ def test_models_are_found_through_gazebos_variables(tmp_path, monkeypatch, varia
     assert scenario.obstacles == expected.obstacles
 
 
+def test_a_model_uri_with_three_slashes_names_the_model(tmp_path):
+    """ "model:///post" (turtlebot3's table_marble writes its mesh so) is
+    the model "post", as "model://post" is."""
+    path = _world_file(tmp_path, "<include><uri>model:///post</uri></include>")
+    (tmp_path / "elsewhere").mkdir()  # searched first, holds no "post"
+    folders = [str(tmp_path / "elsewhere"), MODELS]
+    (post,) = world_obstacles(path, "w.world", folders).obstacles
+    assert post.shape == sc.Cylinder(radius=0.3, length=3.0)
+    assert post.position == [0.0, 0.0, 1.5]
+
+
 def test_a_package_uri_is_found_through_ros_package_path(tmp_path, monkeypatch):
     """package://PKG names the folder whose package.xml names PKG, however
     its folder is called."""

@@ -362,7 +362,8 @@ class _Reader:
             return os.path.normpath(os.path.join(folder, uri))
         if scheme == "file":
             return os.path.join(folder, rest)  # `rest` absolute: itself
-        name, _, inner = rest.partition("/")
+        # "model:///NAME/…" (turtlebot3's table_marble) names NAME as well.
+        name, _, inner = rest.lstrip("/").partition("/")
         if scheme == "model":
             folders = self.model_folders(folder)
             found = [os.path.join(f, name) for f in folders]
