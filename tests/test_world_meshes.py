@@ -7,6 +7,7 @@ Drake's own glTF reader; the open wall's sensor readings against a
 brute-force point-to-triangle distance in numpy; the cloud's hole count by
 hand from how the fixture was made."""
 
+import logging
 import os
 import warnings
 
@@ -78,6 +79,16 @@ def test_each_box_file_is_the_box(name):
     got = np.unique(np.round(vertices, 9), axis=0)
     np.testing.assert_allclose(got, expected[np.lexsort(expected.T[::-1])], atol=1e-6)
     assert len(triangles) == 12
+
+
+def test_a_textured_mesh_reads_without_a_word(caplog):
+    """Its textures are not read, and trimesh's complaint of each one ("unable
+    to load bumpmap" and a traceback, on stderr) is not said."""
+    with caplog.at_level(logging.DEBUG):
+        vertices, _ = read_mesh(os.path.join(DATA, "box_textured.dae"))
+    assert len(np.unique(np.round(vertices, 9), axis=0)) == 8
+    said = [r for r in caplog.records if r.name.startswith("trimesh")]
+    assert not [r for r in said if r.levelno >= logging.WARNING], said
 
 
 @pytest.mark.parametrize("name", BOXES)

@@ -15,6 +15,7 @@ is a ValueError of one line.
 """
 
 import contextlib
+import logging
 import os
 import re
 import warnings
@@ -39,6 +40,20 @@ _ASSET_BYTES = 1 << 16
 # loaders' fuzz found a GLB whose reading grew past 20 GB.
 READ_MEMORY_BASE = 1 << 30
 READ_BYTES_PER_FILE_BYTE = 256
+
+
+@contextlib.contextmanager
+def quiet_readers() -> Iterator[None]:
+    """trimesh's warnings while it reads (a texture it was not given, "unable
+    to load bumpmap" and a traceback on stderr) left unsaid: a reader's
+    failure reaches the user as `read_mesh`'s one line."""
+    logger = logging.getLogger("trimesh")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 @contextlib.contextmanager
@@ -114,7 +129,7 @@ def _trimesh(path: str, suffix: str) -> tuple[np.ndarray, np.ndarray]:
         # trimesh's merge of equal vertices casts absurd coordinates (1e308)
         # with a RuntimeWarning; the checks after reading judge the values.
         no_files = trimesh.resolvers.ZipResolver({})
-        with warnings.catch_warnings(), bounded_memory(path):
+        with warnings.catch_warnings(), quiet_readers(), bounded_memory(path):
             warnings.simplefilter("ignore", RuntimeWarning)
             # Materials and textures are not read: no flight sees them, and an
             # image cut off in a download would refuse the mesh. COLLADA's

@@ -77,7 +77,8 @@ def write_ply(path: str, vertices, tris) -> None:
 
 def write_dae(path: str, vertices, tris, meter: float, up: str, texture=None) -> None:
     """A COLLADA box; with `texture` (a file name beside it) its faces carry
-    texture coordinates and a material that maps that image."""
+    texture coordinates and a material that maps that image, as its colour
+    and its bump map."""
     floats = " ".join(f"{x:g}" for x in vertices.ravel())
     textured = texture is not None
     # Without texture coordinates a face lists its vertices; with them each
@@ -105,7 +106,10 @@ def write_dae(path: str, vertices, tris, meter: float, up: str, texture=None) ->
       <newparam sid="sampler"><sampler2D><source>surface</source></sampler2D></newparam>
       <technique sid="common"><lambert>
         <diffuse><texture texture="sampler" texcoord="uv"/></diffuse>
-      </lambert></technique>
+      </lambert>
+      <extra><technique profile="FCOLLADA">
+        <bump><texture texture="sampler" texcoord="uv"/></bump>
+      </technique></extra></technique>
     </profile_COMMON></effect>
   </library_effects>
   <library_materials>
