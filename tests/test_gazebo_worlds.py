@@ -425,6 +425,13 @@ def test_a_mujoco_file_pybullet_ships_is_still_its_geoms(tmp_path):
     assert world.ground == 0.0 and world.notes.startswith("read past 2 joints"), (
         world.notes
     )
+    # Named "" (Drake's check failed: the process exited): named by its file.
+    (tmp_path / "e.xml").write_text(
+        '<mujoco model=""><worldbody><geom type="sphere" size="1"/></worldbody>'
+        "</mujoco>"
+    )
+    (ball,) = world_obstacles(str(tmp_path / "e.xml"), "e.xml").obstacles
+    assert ball.shape == sc.Sphere(radius=1.0)
 
 
 def test_a_pybullet_urdf_as_shipped_loads(tmp_path):

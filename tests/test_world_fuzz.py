@@ -192,13 +192,6 @@ ONCE_CRASHED = {
         '<mujoco model="m"><worldbody><include file="scene.xml"/></worldbody></mujoco>',
         "data/mujoco/scene.xml:1: ",
     ),
-    # A failed Drake check (an empty model name) is raised as SystemExit.
-    "an mjcf model named ''": (
-        "mujoco/scene.xml",
-        '<mujoco model=""><worldbody><geom type="sphere" size="1"/></worldbody>'
-        "</mujoco>",
-        "data/mujoco/scene.xml: Failure at ",
-    ),
     "an entity that expands": (
         "pybullet/table.urdf",
         '<?xml version="1.0"?>\n<!DOCTYPE r [<!ENTITY a "aaaaaaaaaa">]>\n<robot/>',

@@ -38,6 +38,7 @@ BOXES = [
     "box_cm.dae",
     "box_y_up.dae",
     "box_textured.dae",  # its image is cut off halfway: read without it
+    "box_imageless.dae",  # its image names no file: pycollada dropped the box
     "box.gltf",
     "box.glb",
 ]

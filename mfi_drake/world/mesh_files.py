@@ -15,6 +15,7 @@ is a ValueError of one line.
 """
 
 import contextlib
+import io
 import logging
 import os
 import re
@@ -128,19 +129,13 @@ def _trimesh(path: str, suffix: str) -> tuple[np.ndarray, np.ndarray]:
     try:
         # trimesh's merge of equal vertices casts absurd coordinates (1e308)
         # with a RuntimeWarning; the checks after reading judge the values.
-        no_files = trimesh.resolvers.ZipResolver({})
         with warnings.catch_warnings(), quiet_readers(), bounded_memory(path):
             warnings.simplefilter("ignore", RuntimeWarning)
             # Materials and textures are not read: no flight sees them, and an
-            # image cut off in a download would refuse the mesh. COLLADA's
-            # reader has no switch for it: its resolver is an empty archive,
-            # so every texture is missing (the reader drops it and goes on).
+            # image cut off in a download would refuse the mesh.
+            source = _unpainted(path) if suffix == ".dae" else path
             loaded = trimesh.load(
-                path,
-                file_type=suffix[1:],
-                force="mesh",
-                skip_materials=True,
-                resolver=no_files if suffix == ".dae" else None,
+                source, file_type=suffix[1:], force="mesh", skip_materials=True
             )
         vertices = np.asarray(loaded.vertices, dtype=float)
         triangles = np.asarray(loaded.faces, dtype=np.int64).reshape(-1, 3)
@@ -149,6 +144,24 @@ def _trimesh(path: str, suffix: str) -> tuple[np.ndarray, np.ndarray]:
             f"not readable as a {suffix[1:].upper()} mesh: {read_failure(e)}"
         ) from None
     return vertices.reshape(-1, 3), triangles
+
+
+def _unpainted(path: str) -> io.BytesIO:
+    """A COLLADA file without its images, effects and materials, nor their
+    bindings to its geometry. Its reader has no switch to skip them, and
+    where one is broken it drops the geometry bound to it: Gazebo's tray
+    parts (an image whose file is commented out) read as no triangles."""
+    with open(path, "rb") as f:
+        data = f.read()
+    data = re.sub(
+        rb"<library_(images|effects|materials)\b(?:[^>]*/>|.*?</library_\1\s*>)",
+        b"",
+        data,
+        flags=re.S,
+    )
+    return io.BytesIO(
+        re.sub(rb"<bind_material\b.*?</bind_material\s*>", b"", data, flags=re.S)
+    )
 
 
 def collada_asset(path: str) -> tuple[float, str]:

@@ -4,8 +4,9 @@ convention, all of one scene so a test can compare them with primitives:
 - box_*: a box of 1 × 2 × 0.5 m (x, y, z in Drake's z-up frame), one corner
   at the origin, as a binary and an ASCII STL, a PLY, a glTF and a GLB
   (y-up, as glTF is by spec: Drake's (x, y, z) is glTF's (x, z, −y)), a
-  COLLADA file in centimetres (<unit meter="0.01">, Z_UP), a Y_UP one and
-  a textured one whose image (box_textured.png) was cut off halfway;
+  COLLADA file in centimetres (<unit meter="0.01">, Z_UP), a Y_UP one, a
+  textured one whose image (box_textured.png) was cut off halfway and one
+  whose image names no file;
 - wall_open.ply: two single-sided walls, 4 × 3 m with a door 1 m wide and
   2 m tall at x ∈ [1.5, 2.5] in the plane y = 0, and 3 × 3 m in the plane
   x = 4, as 0.5 m grid squares: an open, flat mesh;
@@ -95,8 +96,11 @@ def write_dae(path: str, vertices, tris, meter: float, up: str, texture=None) ->
             </accessor>
           </technique_common>
         </source>"""
+    # An image of no file ("") is as Gazebo's tray parts ship theirs: its
+    # <init_from> commented out.
+    image = f"<init_from>{texture}</init_from>" if texture else "<!-- none -->"
     material = f"""<library_images>
-    <image id="image"><init_from>{texture}</init_from></image>
+    <image id="image">{image}</image>
   </library_images>
   <library_effects>
     <effect id="effect"><profile_COMMON>
@@ -292,6 +296,7 @@ def main() -> None:
     write_dae(out("box_y_up.dae"), to_y_up(vertices), tris, 1.0, "Y_UP")
     write_dae(out("box_textured.dae"), vertices, tris, 1.0, "Z_UP", "box_textured.png")
     write_truncated_png(out("box_textured.png"))
+    write_dae(out("box_imageless.dae"), vertices, tris, 1.0, "Z_UP", "")
     write_gltf(out("box.gltf"), to_y_up(vertices), tris)
     write_glb(out("box.glb"), to_y_up(vertices), tris)
     write_ply(out("wall_open.ply"), *wall_grid())
