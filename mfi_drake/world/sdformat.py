@@ -222,11 +222,12 @@ class _Reader:
         return copy
 
     def unrepeated(self, link: ET.Element) -> None:
-        """Names a link "world" (PyBullet's grippers fix their base so) and
-        its collisions that repeat a name (Gazebo's kiva shelf: ten
-        "pod_collision") apart, as Gazebo and PyBullet read them; SDFormat
-        reserves the one and Drake refuses the others."""
-        if link.get("name") == "world":
+        """Names an SDFormat link "world" (PyBullet's grippers fix their
+        base so; a URDF's is Drake's world body) and a link's collisions
+        that repeat a name (Gazebo's kiva shelf: ten "pod_collision") apart,
+        as Gazebo and PyBullet read them; SDFormat reserves the one and
+        Drake refuses the others."""
+        if link.get("name") == "world" and self.out.kind == "sdf":
             link.set("name", "world_link")
         seen: Counter = Counter()
         for collision in link.findall("collision"):
