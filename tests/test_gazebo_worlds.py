@@ -42,6 +42,11 @@ YARD_OBSTACLES = {
 CRATE = ([7.0, -1.5, 1.0], 0.5)  # a 1 m cube: centre, yaw (rad)
 
 
+def _probe_points(seed: int, centre, spread: float, count: int = 80) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.asarray(centre) + rng.uniform(-spread, spread, (count, 3))
+
+
 def _yaml(tmp_path, world: str, extra: str = "", name: str = "s.yaml") -> str:
     path = tmp_path / name
     path.write_text(f"{HEAD}world: {world}\n{textwrap.dedent(extra)}")
@@ -542,6 +547,43 @@ def test_a_terrain_is_flown_over_or_round(tmp_path):
     assert scenario.ground == sc.Ground(height=0.0)
     flight = simulate(scenario)
     assert flight.metrics["success"] and flight.metrics["min_clearance"] > 0.0
+
+
+def test_a_polyline_is_its_extruded_outline_exactly(tmp_path):
+    """Gazebo's <polyline>: an L of 6 corners (clockwise, its first corner
+    repeated at the end) extruded 2 m, in a model at (5, 0, 1): 4 triangle
+    prisms whose distances from points around it are those of the two
+    boxes the L is made of (the oracle); its hull's would not be. A
+    polyline that crosses itself is one line naming the file's line."""
+    corners = ["0 0", "0 2", "1 2", "1 1", "2 1", "2 0", "0 0"]
+    points = "".join(f"<point>{c}</point>" for c in corners)
+    path = _world_file(
+        tmp_path,
+        '<model name="l"><static>true</static><pose>5 0 1 0 0 0</pose>'
+        '<link name="k"><collision name="c"><geometry><polyline>'
+        f"{points}<height>2</height></polyline></geometry></collision></link></model>",
+    )
+    world = world_obstacles(path, "w.world")
+    assert len(world.obstacles) == 4 and world.notes == ""
+    boxes = [
+        sc.Obstacle(shape=sc.Box(size=[2.0, 1.0, 2.0]), position=[6.0, 0.5, 2.0]),
+        sc.Obstacle(shape=sc.Box(size=[1.0, 1.0, 2.0]), position=[5.5, 1.5, 2.0]),
+    ]
+    probes = _probe_points(3, [6.0, 1.0, 2.0], 2.5)
+    expected = np.asarray(obstacle_distances(sc.Scenario(obstacles=boxes), probes))
+    outside = expected > 0.0
+    got = np.asarray(obstacle_distances(sc.Scenario(obstacles=world.obstacles), probes))
+    assert outside.sum() > 40
+    np.testing.assert_allclose(got[outside], expected[outside], atol=1e-9)
+    crossed = "".join(f"<point>{c}</point>" for c in ["0 0", "3 2", "3 0", "0 1"])
+    bow = _world_file(
+        tmp_path,
+        '<model name="b"><static>true</static><link name="k"><collision name="c">'
+        f"<geometry><polyline>{crossed}<height>1</height></polyline></geometry>"
+        "</collision></link></model>",
+    )
+    with pytest.raises(ValueError, match=r"w.world:1: .*must not cross itself"):
+        world_obstacles(bow, "w.world")
 
 
 def test_world_pose_places_a_cloud(tmp_path):

@@ -176,8 +176,8 @@ SHOWN = tuple(_SHOWN.split())  # in the one line (the last two: geometry not rea
 class Prepared:
     """A world file rewritten for Drake: `texts` in format `kind` ("sdf",
     "urdf"), each parsed apart (a world's models in parts: Drake's parse
-    time grows as their number squared), the collision meshes, planes and
-    terrains its placeholders number, what was read past, and where each
+    time grows as their number squared), the collision meshes, planes,
+    terrains and extrusions its placeholders number, what was read past, and where each
     element of each text came from."""
 
     texts: list[str] = field(default_factory=list)
@@ -190,6 +190,8 @@ class Prepared:
     heightmaps: list[tuple[str, list[float], list[float], str]] = field(
         default_factory=list
     )
+    # Each extrusion's: its polylines' points and heights, and "file:line".
+    polylines: list[tuple[list, str]] = field(default_factory=list)
     # Each mesh's convex pieces once decomposed, by `decomposition.mesh_key`
     # (`world_files` fills it).
     pieces: dict = field(default_factory=dict)

@@ -51,7 +51,7 @@ from mfi_drake.world.model_files import (
     read_xml,
 )
 
-MARK = re.compile(r"__mfi_(mesh|plane|heightmap)_(\d+)__(.*)$")
+MARK = re.compile(r"__mfi_(mesh|plane|heightmap|polyline)_(\d+)__(.*)$")
 FRAMED = ("link", "model", "frame")  # what a model's frame names must not repeat
 CONVEX = "drake:declare_convex"  # Drake's: a mesh flown as its hull
 PART = 250  # models a part (Drake parses 250 in 0.1 s, 2000 in 8 s)
@@ -70,10 +70,11 @@ SDF = {
     "frame": ({"pose"}, {"name", "attached_to"}),
     "geometry": (
         {"box", "sphere", "cylinder", "capsule", "ellipsoid", "mesh", "plane"}
-        | {"heightmap"},
+        | {"heightmap", "polyline"},
         set(),
     ),
     "heightmap": ({"uri", "size", "pos"}, set()),  # `world.terrain`'s
+    "polyline": ({"point", "height"}, set()),  # `world.extrusions`'
     "box": ({"size"}, set()),
     "sphere": ({"radius"}, set()),
     "cylinder": ({"radius", "length"}, set()),
@@ -109,7 +110,7 @@ _KNOWN = (
     "particle_emitter must_be_base_link heightmap polyline image submesh state "
     "gazebo transmission material limit axis axis2 dynamics safety_controller "
     "calibration mimic contact uri name static placement_frame parent texture "
-    "blend use_terrain_paging sampling "
+    "blend use_terrain_paging sampling point "
     "thread_pitch gearbox_ratio gearbox_reference_body"
 )
 KNOWN = frozenset(_KNOWN.split())
@@ -414,6 +415,8 @@ class _Reader:
             return self.placeholder(element, f"plane_{len(self.out.planes) - 1}")
         if shape.tag == "heightmap":
             return self.heightmap(element, shape, folder, where)
+        if shape.tag == "polyline":
+            return self.polylines(element, geometry, where)
         if shape.tag != "mesh":
             return element
         uri = (shape.findtext("uri") or shape.get("filename") or "").strip()
@@ -480,6 +483,28 @@ class _Reader:
             )
         self.out.heightmaps.append((path, size, pos, where))
         return self.placeholder(collision, f"heightmap_{len(self.out.heightmaps) - 1}")
+
+    def polylines(
+        self, collision: ET.Element, geometry: ET.Element, where: str
+    ) -> ET.Element:
+        """Extruded polygons' placeholder; each polyline's points and
+        height listed for `world.extrusions`."""
+        shapes = []
+        for polyline in geometry.findall("polyline"):
+            points = [
+                _numbers(p.text or "", where, "a polyline's point")
+                for p in polyline.findall("point")
+            ]
+            height = _numbers(polyline.findtext("height") or "1", where, "a height")
+            if any(len(p) != 2 for p in points) or len(height) != 1:
+                raise ValueError(
+                    f"{where}: a polyline's points must be 2 numbers, its height 1"
+                )
+            shapes.append((points, height[0]))
+        for extra in geometry.findall("polyline")[1:]:  # the placeholder's
+            geometry.remove(extra)
+        self.out.polylines.append((shapes, where))
+        return self.placeholder(collision, f"polyline_{len(self.out.polylines) - 1}")
 
     def placeholder(self, collision: ET.Element, mark: str) -> ET.Element:
         """`collision` with a unit box for its shape, renamed with `mark`

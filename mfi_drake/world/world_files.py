@@ -44,6 +44,7 @@ from mfi_drake.world.decomposition import (
     prefetch_pieces,
     with_meshes,
 )
+from mfi_drake.world.extrusions import prisms
 from mfi_drake.world.model_files import Prepared
 from mfi_drake.world.point_clouds import with_map
 from mfi_drake.world.sdformat import MARK, prepare
@@ -254,6 +255,8 @@ def _obstacles(
         shape = Box(*SLAB)
     if mark and mark[1] == "heightmap":
         return _terrain(prepared.heightmaps[int(mark[2])], X_SG, where)
+    if mark and mark[1] == "polyline":
+        return _extruded(prepared.polylines[int(mark[2])], X_SG, where), None
     if type(shape) not in (*_SHAPES, Mesh):
         raise ValueError(
             f"model {model!r} geometry {name!r}: a {type(shape).__name__} "
@@ -278,6 +281,31 @@ def _obstacles(
             cause = f"model {model!r} geometry {name!r}: {e}"
             raise ValueError(f"{origin}: {cause}" if origin else cause) from None
     return [dataclasses.replace(obstacle, shape=_SHAPES[type(shape)](shape))], None
+
+
+def _extruded(polylines: tuple, X_SG: RigidTransform, where: str) -> list[sc.Obstacle]:
+    """Extruded polygons at X_SG in the scenario: each triangle's prism, a
+    convex obstacle centred on its own centroid (`world.extrusions`)."""
+    shapes, origin = polylines
+    angles = np.degrees(RollPitchYaw(X_SG.rotation()).vector())
+    rpy = [round(float(a), RPY_DECIMALS) + 0.0 for a in angles]
+    obstacles = []
+    for points, height in shapes:
+        try:
+            pieces = prisms(points, height)
+        except ValueError as e:
+            raise ValueError(f"{origin}: {where}: {e}") from None
+        for corners in pieces:
+            centre = corners.mean(axis=0)
+            obstacles.append(
+                sc.Obstacle(
+                    shape=sc.Convex(vertices=(corners - centre).tolist()),
+                    position=[float(x) for x in X_SG.multiply(centre)],
+                    rpy_deg=rpy,
+                    name=f"{where} piece {len(obstacles)}",
+                )
+            )
+    return obstacles
 
 
 def _terrain(
