@@ -21,23 +21,22 @@ collision geometry at its pose, so only that is kept.
 - Every model is static, its links where its file (or its world's
   `<state>`, applied here as Gazebo applies it) puts them; a URDF's joints
   are fixed at zero. Inertia never matters.
-- A collision mesh (any format) or plane is replaced by a placeholder box
-  whose name `MARK` numbers it: Drake reads no mesh file, and
-  `world_files` decomposes the mesh itself (`Prepared.meshes`). A plane is
-  no half space in Drake's SceneGraph: among thousands of geometries, one
-  crashes its broadphase (FCL) as they are registered.
+- A collision mesh (any format), plane, heightmap or polyline is replaced
+  by a placeholder box whose name `sdf_rules.MARK` numbers it: Drake reads
+  no mesh file, and `world_files` decomposes the mesh itself
+  (`Prepared.meshes`), makes a terrain's columns (`world.terrain`) and an
+  extrusion's prisms (`world.extrusions`). A plane is no half space in
+  Drake's SceneGraph: among thousands of geometries, one crashes its
+  broadphase (FCL) as they are registered.
 
 Errors are one line naming the file and line of their cause (ValueError).
 """
 
-import math
 import os
-import re
 import xml.etree.ElementTree as ET
 from collections import Counter
 
-from pydrake.common.eigen_geometry import Quaternion
-from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.math import RigidTransform
 
 from mfi_drake.world.mjcf import MAX_DEPTH, rewrite_mjcf
 from mfi_drake.world.model_files import (
@@ -50,104 +49,18 @@ from mfi_drake.world.model_files import (
     newest_version,
     read_xml,
 )
-
-MARK = re.compile(r"__mfi_(mesh|plane|heightmap|polyline)_(\d+)__(.*)$")
-FRAMED = ("link", "model", "frame")  # what a model's frame names must not repeat
-CONVEX = "drake:declare_convex"  # Drake's: a mesh flown as its hull
-PART = 250  # models a part (Drake parses 250 in 0.1 s, 2000 in 8 s)
-# What Drake needs of SDFormat and URDF: the children and attributes kept.
-SDF = {
-    "sdf": ({"world", "model"}, {"version"}),
-    "world": ({"model", "include", "frame"}, {"name"}),
-    "model": (
-        {"static", "pose", "link", "model", "include", "frame", "joint"},
-        {"name"},
-    ),
-    # Kept as the frame it defines; its type and parent are not read.
-    "joint": ({"pose", "child"}, {"name", "type"}),
-    "link": ({"pose", "collision"}, {"name"}),
-    "collision": ({"pose", "geometry"}, {"name"}),
-    "frame": ({"pose"}, {"name", "attached_to"}),
-    "geometry": (
-        {"box", "sphere", "cylinder", "capsule", "ellipsoid", "mesh", "plane"}
-        | {"heightmap", "polyline"},
-        set(),
-    ),
-    "heightmap": ({"uri", "size", "pos"}, set()),  # `world.terrain`'s
-    "polyline": ({"point", "height"}, set()),  # `world.extrusions`'
-    "box": ({"size"}, set()),
-    "sphere": ({"radius"}, set()),
-    "cylinder": ({"radius", "length"}, set()),
-    "capsule": ({"radius", "length"}, set()),
-    "ellipsoid": ({"radii"}, set()),
-    "mesh": ({"uri", "scale", CONVEX}, set()),
-    "plane": ({"normal", "size"}, set()),
-    "pose": (set(), {"relative_to", "degrees", "rotation_format"}),
-}
-URDF = {
-    "robot": ({"link", "joint"}, {"name"}),
-    "link": ({"collision"}, {"name"}),
-    "collision": ({"origin", "geometry"}, {"name"}),
-    "geometry": ({"box", "sphere", "cylinder", "capsule", "mesh", "plane"}, set()),
-    "box": (set(), {"size"}),
-    "plane": (set(), {"normal"}),  # PyBullet's
-    "sphere": (set(), {"radius"}),
-    "cylinder": (set(), {"radius", "length"}),
-    "capsule": (set(), {"radius", "length"}),
-    "mesh": ({CONVEX}, {"filename", "scale"}),
-    "origin": (set(), {"xyz", "rpy"}),
-    "joint": ({"origin", "parent", "child"}, {"name", "type"}),
-    "parent": (set(), {"link"}),
-    "child": (set(), {"link"}),
-}
-# Elements either format defines that a flight does not read: counted in
-# the one line that says what was read past, not warned about.
-_KNOWN = (
-    "visual sensor plugin light actor gui scene physics audio_source audio_sink "
-    "inertial joint gripper self_collide allow_auto_disable enable_wind kinematic "
-    "gravity velocity_decay surface laser_retro max_contacts spherical_coordinates "
-    "magnetic_field atmosphere wind road population battery projector "
-    "particle_emitter must_be_base_link heightmap polyline image submesh state "
-    "gazebo transmission material limit axis axis2 dynamics safety_controller "
-    "calibration mimic contact uri name static placement_frame parent texture "
-    "blend use_terrain_paging sampling point "
-    "thread_pitch gearbox_ratio gearbox_reference_body"
+from mfi_drake.world.sdf_rules import (
+    CONVEX,
+    FRAMED,
+    KNOWN,
+    SDF,
+    URDF,
+    numbers,
+    pose_matrix,
+    pose_text,
 )
-KNOWN = frozenset(_KNOWN.split())
 
-
-def pose_matrix(element: ET.Element | None, where: str) -> RigidTransform:
-    """An SDFormat <pose> (x y z roll pitch yaw, radians unless
-    degrees="true", or x y z qx qy qz qw) as a transform."""
-    if element is None:
-        return RigidTransform()
-    values = _numbers((element.text or "0 0 0 0 0 0"), where, "pose")
-    if len(values) == 7 and element.get("rotation_format") == "quat_xyzw":
-        x, y, z, w = values[3:]
-        norm = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
-        rotation = RotationMatrix(Quaternion(w / norm, x / norm, y / norm, z / norm))
-        return RigidTransform(rotation, values[:3])
-    if len(values) != 6:
-        raise ValueError(f"{where}: a pose must hold 6 numbers, not {element.text!r}")
-    angles = values[3:]
-    if element.get("degrees") == "true":
-        angles = [math.radians(a) for a in angles]
-    return RigidTransform(RollPitchYaw(angles), values[:3])
-
-
-def _numbers(text: str, where: str, what: str) -> list[float]:
-    try:
-        values = [float(x) for x in text.split()]
-    except ValueError:
-        values = [math.nan]
-    if not all(math.isfinite(v) for v in values):
-        raise ValueError(f"{where}: {what} must hold finite numbers, not {text!r}")
-    return values
-
-
-def _pose_text(X: RigidTransform) -> str:
-    values = [*X.translation(), *RollPitchYaw(X.rotation()).vector()]
-    return " ".join(repr(float(v)) for v in values)
+PART = 250  # models a part (Drake parses 250 in 0.1 s, 2000 in 8 s)
 
 
 class _Reader:
@@ -310,7 +223,7 @@ class _Reader:
         for old in element.findall("pose"):
             element.remove(old)
         pose = ET.Element("pose")
-        pose.text = _pose_text(X)
+        pose.text = pose_text(X)
         self.origins[pose] = self.origins[cause]
         element.insert(0, pose)
 
@@ -408,7 +321,7 @@ class _Reader:
         if shape.tag == "plane":
             # SDFormat's <normal>, PyBullet's URDF normal= (plane_implicit).
             written = shape.findtext("normal") or shape.get("normal") or "0 0 1"
-            normal = _numbers(written, where, "a normal")
+            normal = numbers(written, where, "a normal")
             if len(normal) != 3 or not any(normal):
                 raise ValueError(f"{where}: a plane's normal must be 3 numbers, not 0")
             self.out.planes.append((normal, where))
@@ -430,7 +343,7 @@ class _Reader:
                 shape.find("uri").text = f"file://{path}"
             return element
         scale = shape.findtext("scale") or shape.get("scale") or "1"
-        scale = _numbers(scale, where, "a mesh's scale")
+        scale = numbers(scale, where, "a mesh's scale")
         if self.out.kind == "urdf" and len(scale) > 3:
             scale = scale[:3]  # PyBullet's reading (racecar: "1 1 1 1")
         if len(scale) not in (1, 3):
@@ -475,8 +388,8 @@ class _Reader:
         path = self.resolve(uri, folder, where)
         if not os.path.isfile(path):
             raise ValueError(f"{where}: heightmap {uri!r}: no such file ({path})")
-        size = _numbers(shape.findtext("size") or "1 1 1", where, "a heightmap's size")
-        pos = _numbers(shape.findtext("pos") or "0 0 0", where, "a heightmap's pos")
+        size = numbers(shape.findtext("size") or "1 1 1", where, "a heightmap's size")
+        pos = numbers(shape.findtext("pos") or "0 0 0", where, "a heightmap's pos")
         if len(size) != 3 or min(size) <= 0.0 or len(pos) != 3:
             raise ValueError(
                 f"{where}: a heightmap's size must be 3 positive numbers, its pos 3"
@@ -492,10 +405,10 @@ class _Reader:
         shapes = []
         for polyline in geometry.findall("polyline"):
             points = [
-                _numbers(p.text or "", where, "a polyline's point")
+                numbers(p.text or "", where, "a polyline's point")
                 for p in polyline.findall("point")
             ]
-            height = _numbers(polyline.findtext("height") or "1", where, "a height")
+            height = numbers(polyline.findtext("height") or "1", where, "a height")
             if any(len(p) != 2 for p in points) or len(height) != 1:
                 raise ValueError(
                     f"{where}: a polyline's points must be 2 numbers, its height 1"
@@ -508,7 +421,8 @@ class _Reader:
 
     def placeholder(self, collision: ET.Element, mark: str) -> ET.Element:
         """`collision` with a unit box for its shape, renamed with `mark`
-        (`MARK`): Drake poses the box; what it stands for is the mark's."""
+        (`sdf_rules.MARK`): Drake poses the box; what it stands for is the
+        mark's."""
         name = collision.get("name", "collision")
         collision.set("name", f"__mfi_{mark}__{name}")
         geometry = collision.find("geometry")

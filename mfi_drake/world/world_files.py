@@ -47,7 +47,8 @@ from mfi_drake.world.decomposition import (
 from mfi_drake.world.extrusions import prisms
 from mfi_drake.world.model_files import Prepared
 from mfi_drake.world.point_clouds import with_map
-from mfi_drake.world.sdformat import MARK, prepare
+from mfi_drake.world.sdf_rules import MARK
+from mfi_drake.world.sdformat import prepare
 from mfi_drake.world.terrain import read_heights, terrain_columns
 
 WORLD_SUFFIXES = (".sdf", ".world", ".urdf", ".xml", ".mjcf")
