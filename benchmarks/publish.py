@@ -434,14 +434,16 @@ def readme_field_table(root: str) -> str:
 
 def fleet_tables(root: str) -> str:
     """The multi-vehicle sweeps (`mfi-drake sweep --vehicles N`), one table
-    a fleet size, as the sweep writes them."""
+    a fleet size, as the sweep writes them, each saying who flew its MFI
+    where that is not today's (`flown_by`)."""
     parts = []
     for name in FLEETS:
         result = summary(root, name)
         config = result["config"]
         parts.append(
             f"**{config['vehicles']} vehicles**, seed {config['seed']}, "
-            f"{config['n']} fields ({name}):\n\n" + fleet_table(result)
+            f"{config['n']} fields ({name}{flown_by(root, name)}):\n\n"
+            + fleet_table(result)
         )
     return "\n\n".join(parts)
 
@@ -698,7 +700,6 @@ SECTION_SETS = {
     "ablation": "ablation_7171",
     "robustness": "robustness",
     "robustness_state": "robustness_state_h_miss",
-    "fleet": "fleet_4",
 }
 
 
