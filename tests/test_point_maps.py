@@ -16,6 +16,7 @@ from mfi_drake.app.cli import main
 from mfi_drake.config import scenario as sc
 from mfi_drake.config.scenario_yaml import scenario_from_yaml, scenario_to_yaml
 from mfi_drake.config.vehicles import VEHICLES
+from mfi_drake.config.worlds import ScenarioWarning
 from mfi_drake.flight.result import outcome
 from mfi_drake.flight.simulation import simulate
 from mfi_drake.maths.layout import seen_points
@@ -339,3 +340,24 @@ def test_las_and_laz_surveys_load_as_the_same_ply_map(tmp_path):
     laz = load_scenario(_mapped(tmp_path, name="map.laz"))
     assert las.map_points == laz.map_points
     np.testing.assert_allclose(las.map_points, downsample(points, 0.05), atol=1e-9)
+
+
+def test_text_clouds_load_as_the_same_ply_map(tmp_path):
+    """A scan exported as text: XYZ (a comment, commas, intensity and
+    colour columns not read) and PTS (its first line the count of points,
+    a point without a return as nan: left out and said), both the points
+    the PLY holds."""
+    points = np.round(
+        np.random.default_rng(7).uniform([3, -2, 0], [6, 2, 3], (300, 3)), 6
+    )
+    rows = [f"{x},{y},{z},0.5,200,10,10" for x, y, z in points]
+    (tmp_path / "scan.xyz").write_text("// exported\n" + "\n".join(rows) + "\n")
+    rows = [f"{x} {y} {z} 12 200 10 10" for x, y, z in points] + ["nan nan nan 0 0 0 0"]
+    (tmp_path / "scan.PTS").write_text(f"{len(rows)}\n" + "\n".join(rows) + "\n")
+    ply = load_scenario(_mapped(tmp_path, points, name="map.ply"))
+    xyz = load_scenario(_mapped(tmp_path, name="scan.xyz"))
+    with pytest.warns(ScenarioWarning, match="1 "):
+        pts = load_scenario(_mapped(tmp_path, name="scan.PTS"))
+    assert xyz.map_points == pts.map_points  # the PLY's are float32:
+    np.testing.assert_allclose(xyz.map_points, ply.map_points, atol=1e-6)
+    np.testing.assert_allclose(xyz.map_points, downsample(points, 0.05), atol=1e-12)

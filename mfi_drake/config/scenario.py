@@ -55,7 +55,7 @@ FLEET_INTEGRATIONS = ("separate", "one")
 # one compiled system.
 ENGINES = ("systems", "compiled")
 # A `world:` that is a point-cloud map (any case: scanners write ".LAS").
-MAP_SUFFIXES = (".ply", ".pcd", ".las", ".laz")
+MAP_SUFFIXES = (".ply", ".pcd", ".las", ".laz", ".xyz", ".pts")
 
 
 @dataclass
@@ -144,7 +144,7 @@ class Scenario:
     # A Gazebo (.world, .sdf), URDF or MJCF (.xml) file, relative to the YAML
     # file, whose models' collision geometries are obstacles too: loading
     # appends them to `obstacles` and empties this (docs/usage.md, "Worlds").
-    # Or a point-cloud map (.ply, .pcd), its points thinned into map_points.
+    # Or a point-cloud map (MAP_SUFFIXES), its points thinned into map_points.
     world: str = ""
     # Where the world file is placed in the scenario's frame, and the folders
     # (relative to the YAML file) searched first for its `model://` includes.

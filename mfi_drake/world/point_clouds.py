@@ -1,6 +1,6 @@
-"""Point-cloud maps as a scenario's `world:`: a recorded cloud (PLY, PCD, or
-an aerial survey's LAS or LAZ) read with a maintained reader (plyfile,
-pypcd4, laspy with lazrs), checked, and thinned to
+"""Point-cloud maps as a scenario's `world:`: a recorded cloud (PLY, PCD, an
+aerial survey's LAS or LAZ, or text: XYZ, PTS) read with a maintained
+reader (plyfile, pypcd4, laspy with lazrs; numpy for text), checked, and thinned to
 `Scenario.map_voxel` (`maths.point_maps.downsample`). Loading puts the
 thinned points inline in `Scenario.map_points` and empties `world`, so the
 scenario that travels (as YAML, to a sweep's workers) carries the points,
@@ -26,7 +26,7 @@ from mfi_drake.world.obstacles import obstacle_triangles
 
 def read_cloud(path: str) -> tuple[np.ndarray, int]:
     """((n, 3) float64: the x, y, z of every finite point of the PLY, PCD,
-    LAS or LAZ file `path` (LAS: its scaled coordinates, in the file's
+    LAS, LAZ, XYZ or PTS file `path` (LAS: its scaled coordinates, in the file's
     units), how many points were not finite and are left out). Raises
     ValueError, one line, for a file that is missing, unreadable, without
     x, y, z, or without a finite point."""
@@ -45,6 +45,8 @@ def read_cloud(path: str) -> tuple[np.ndarray, int]:
 
                 survey = laspy.read(path)
                 points = np.column_stack([survey.x, survey.y, survey.z])
+            elif suffix in (".xyz", ".pts"):
+                points = _text_cloud(path)
             else:
                 from pypcd4 import PointCloud
 
@@ -58,6 +60,27 @@ def read_cloud(path: str) -> tuple[np.ndarray, int]:
     if not finite.any():
         raise ValueError(f"holds no finite point (all {len(points)} are NaN or inf)")
     return points[finite], int(len(points) - finite.sum())
+
+
+def _text_cloud(path: str) -> np.ndarray:
+    """A text cloud as scanners and CloudCompare export it: a point a line,
+    x y z first (then intensity, colour... not read), separated by spaces
+    or commas; lines of "#" or "//" are comments; a .pts file's first line,
+    the count of its points, is no point."""
+    with open(path, encoding="utf-8", errors="replace") as f:
+        lines = [line.strip() for line in f]
+    comment = ("#", "//")
+    data = [n for n, line in enumerate(lines) if line and not line.startswith(comment)]
+    counted = bool(data) and lines[data[0]].isdigit()  # a .pts count line
+    points = data[1:] if counted else data
+    return np.loadtxt(
+        path,
+        usecols=(0, 1, 2),
+        comments=comment,
+        delimiter="," if points and "," in lines[points[0]] else None,
+        skiprows=data[0] + 1 if counted else 0,
+        ndmin=2,
+    )
 
 
 def with_map(scenario: sc.Scenario, where: str) -> sc.Scenario:

@@ -148,7 +148,8 @@ def world_obstacles(
     if not path.lower().endswith(WORLD_SUFFIXES):
         raise ValueError(
             "must be a Gazebo world or model (.world, .sdf), a URDF (.urdf), "
-            "an MJCF (.xml) file, or a point-cloud map (.ply, .pcd)"
+            "an MJCF (.xml) file, or a point-cloud map (.ply, .pcd, .las, .laz, "
+            ".xyz, .pts)"
         )
     if not os.path.isfile(path):
         raise ValueError(f"no such file ({path})")
