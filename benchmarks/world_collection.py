@@ -35,7 +35,9 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from mfi_drake.config import scenario as sc
 from mfi_drake.files import write_text
+from mfi_drake.world.shapes import bounding_radius
 
 SUFFIXES = (".world", ".sdf", ".urdf")
 MARGIN = 3.0  # m before and beyond the world's obstacles
@@ -65,28 +67,16 @@ def _is_mjcf(path: str) -> bool:
         return False
 
 
-def reach(shape) -> float:
-    """A shape's farthest point from its centre, at most (m)."""
-    kind = type(shape).__name__
-    if kind == "Box":
-        return float(np.linalg.norm(shape.size)) / 2
-    if kind == "Sphere":
-        return shape.radius
-    if kind in ("Cylinder", "Capsule"):
-        return shape.radius + shape.length / 2
-    if kind == "Ellipsoid":
-        return max(shape.radii)
-    return float(np.linalg.norm(np.asarray(shape.vertices), axis=1).max())
-
-
 def flight_past(path: str, world, model_paths: list[str], out: str) -> dict:
     """The default MFI flown past `world` (the file `path` loaded)."""
     from mfi_drake.config.scenario import ScenarioError
     from mfi_drake.flight.simulation import simulate
     from mfi_drake.world.validation import load_scenario
 
+    alone = sc.Scenario()  # a world's pieces hold their vertices inline
     centres = np.array([o.position for o in world.obstacles] or [[0.0] * 3])
-    reaches = np.array([reach(o.shape) for o in world.obstacles] or [0.0])
+    reaches = [bounding_radius(alone, o.shape) for o in world.obstacles] or [0.0]
+    reaches = np.asarray(reaches)
     low = (centres - reaches[:, None]).min(axis=0)
     high = (centres + reaches[:, None]).max(axis=0)
     ground = low[2] - 1.0 if world.ground is None else world.ground

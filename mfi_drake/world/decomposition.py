@@ -200,19 +200,27 @@ def mesh_obstacles(
     """An obstacle whose shape is the mesh file `path` (any format of
     `mesh_files.MESH_SUFFIXES`, scaled by `scale`, a number or one per axis:
     SDFormat's <scale>) as its convex pieces (`mesh_pieces`, or `known`'s:
-    `prefetch_pieces`'), each at its pose and with its motion, named
-    "`name` piece k". A piece of an
-    obstacle that does not move is centred on its own origin, so that its
-    bounding radius is its own size, not its distance from the mesh's
-    origin (which made every piece of a room a candidate nearest any
-    point: `obstacles._candidates`). Raises ValueError, one line."""
+    `prefetch_pieces`'), as `placed_pieces` places them. Raises
+    ValueError, one line."""
+    pieces = (known or {}).get(mesh_key(path, scale))
+    if pieces is None:
+        pieces = mesh_pieces(*read_mesh(path), scale)
+    return placed_pieces(obstacle, pieces, name)
+
+
+def placed_pieces(
+    obstacle: sc.Obstacle, pieces: list[np.ndarray], name: str
+) -> list[sc.Obstacle]:
+    """Convex pieces (each (n, 3) vertices in `obstacle`'s frame) as
+    obstacles at its pose and with its motion, named "`name` piece k". A
+    piece of an obstacle that does not move is centred on its own origin,
+    so that its bounding radius is its own size, not its distance from the
+    obstacle's origin (which made every piece of a room a candidate nearest
+    any point: `obstacles._candidates`)."""
     # Imported here: a decomposing worker process needs no pydrake.
     from mfi_drake.config.dynamic import moves
     from mfi_drake.world.motion import obstacle_pose
 
-    pieces = (known or {}).get(mesh_key(path, scale))
-    if pieces is None:
-        pieces = mesh_pieces(*read_mesh(path), scale)
     X = obstacle_pose(obstacle)
     still = not moves(obstacle.motion)
     out = []

@@ -165,11 +165,10 @@ def _stilled(root: ET.Element) -> int:
     """Leaves out what moves the scene, which a flight among its geoms never
     reads: joints (each body then sits where the file puts it, which is
     where MuJoCo's qpos0 does) and the sections of the dynamics (actuators,
-    tendons, equality constraints, sensors, keyframes, contact pairs).
-    Drake's parser refused
-    scenes for them: an actuator of a joint it had not made (PyBullet's
-    MPL hand), a joint type only PyBullet reads ("fixed"). Returns how many
-    joints were left out."""
+    tendons, equality constraints, sensors, keyframes, contact pairs, the
+    simulator's settings). Drake's parser refused scenes for them: an
+    actuator of a joint it had not made (PyBullet's MPL hand), a joint type
+    only PyBullet reads ("fixed"). Returns how many joints were left out."""
     for section in [c for c in root if c.tag in _DYNAMICS]:
         root.remove(section)
     joints = 0

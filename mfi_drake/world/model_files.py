@@ -168,8 +168,8 @@ def _version(text: str) -> tuple[int, ...]:
     return tuple(int(x) for x in re.findall(r"\d+", text))
 
 
-_SHOWN = "plugin light actor sensor visual gui joint heightmap population"
-SHOWN = tuple(_SHOWN.split())  # in the one line (the last two: geometry not read)
+_SHOWN = "plugin light actor sensor visual gui joint population"
+SHOWN = tuple(_SHOWN.split())  # in the one line (population: models not read)
 
 
 @dataclass
@@ -177,8 +177,8 @@ class Prepared:
     """A world file rewritten for Drake: `texts` in format `kind` ("sdf",
     "urdf"), each parsed apart (a world's models in parts: Drake's parse
     time grows as their number squared), the collision meshes, planes,
-    terrains and extrusions its placeholders number, what was read past, and where each
-    element of each text came from."""
+    terrains and extrusions its placeholders number, what was read past,
+    and where each element of each text came from."""
 
     texts: list[str] = field(default_factory=list)
     kind: str = "sdf"

@@ -1,7 +1,7 @@
 """Point-cloud maps as a scenario's `world:`: a recorded cloud (PLY, PCD, an
 aerial survey's LAS or LAZ, or text: XYZ, PTS) read with a maintained
-reader (plyfile, pypcd4, laspy with lazrs; numpy for text), checked, and thinned to
-`Scenario.map_voxel` (`maths.point_maps.downsample`). Loading puts the
+reader (plyfile, pypcd4, laspy with lazrs; numpy for text), checked, and
+thinned to `Scenario.map_voxel` (`maths.point_maps.downsample`). Loading puts the
 thinned points inline in `Scenario.map_points` and empties `world`, so the
 scenario that travels (as YAML, to a sweep's workers) carries the points,
 not the path.
@@ -26,8 +26,8 @@ from mfi_drake.world.obstacles import obstacle_triangles
 
 def read_cloud(path: str) -> tuple[np.ndarray, int]:
     """((n, 3) float64: the x, y, z of every finite point of the PLY, PCD,
-    LAS, LAZ, XYZ or PTS file `path` (LAS: its scaled coordinates, in the file's
-    units), how many points were not finite and are left out). Raises
+    LAS, LAZ, XYZ or PTS file `path` (LAS: its scaled coordinates, in the
+    file's units), how many points were not finite and are left out). Raises
     ValueError, one line, for a file that is missing, unreadable, without
     x, y, z, or without a finite point."""
     if not os.path.isfile(path):
@@ -67,18 +67,23 @@ def _text_cloud(path: str) -> np.ndarray:
     x y z first (then intensity, colour... not read), separated by spaces
     or commas; lines of "#" or "//" are comments; a .pts file's first line,
     the count of its points, is no point."""
-    with open(path, encoding="utf-8", errors="replace") as f:
-        lines = [line.strip() for line in f]
     comment = ("#", "//")
-    data = [n for n, line in enumerate(lines) if line and not line.startswith(comment)]
-    counted = bool(data) and lines[data[0]].isdigit()  # a .pts count line
-    points = data[1:] if counted else data
+    head = []  # (line number, text) of the first lines that are no comment
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for n, line in enumerate(f):
+            if line.strip() and not line.strip().startswith(comment):
+                head.append((n, line.strip()))
+                if len(head) == 2:  # the count line, if any, and a point
+                    break
+    counted = bool(head) and head[0][1].isdigit()  # a .pts count line
+    if len(head) <= counted:  # no point (numpy would warn on stderr)
+        return np.empty((0, 3))
     return np.loadtxt(
         path,
         usecols=(0, 1, 2),
         comments=comment,
-        delimiter="," if points and "," in lines[points[0]] else None,
-        skiprows=data[0] + 1 if counted else 0,
+        delimiter="," if "," in head[int(counted)][1] else None,
+        skiprows=head[0][0] + 1 if counted else 0,
         ndmin=2,
     )
 

@@ -41,6 +41,7 @@ from mfi_drake.config.worlds import ScenarioWarning, WorldPose
 from mfi_drake.world.decomposition import (
     hull_pieces,
     mesh_obstacles,
+    placed_pieces,
     prefetch_pieces,
     with_meshes,
 )
@@ -255,10 +256,6 @@ def _obstacles(
         p_S = X_SG.translation() - n_S * SLAB[2] / 2
         X_SG = RigidTransform(RotationMatrix.MakeFromOneVector(n_S, 2), p_S)
         shape = Box(*SLAB)
-    if mark and mark[1] == "heightmap":
-        return _terrain(prepared.heightmaps[int(mark[2])], X_SG, where)
-    if mark and mark[1] == "polyline":
-        return _extruded(prepared.polylines[int(mark[2])], X_SG, where), None
     if type(shape) not in (*_SHAPES, Mesh):
         raise ValueError(
             f"model {model!r} geometry {name!r}: a {type(shape).__name__} "
@@ -270,6 +267,10 @@ def _obstacles(
         rpy_deg=[round(float(x), RPY_DECIMALS) + 0.0 for x in np.degrees(rpy.vector())],
         name=where,
     )
+    if mark and mark[1] == "heightmap":
+        return _terrain(prepared.heightmaps[int(mark[2])], obstacle, X_SG)
+    if mark and mark[1] == "polyline":
+        return _extruded(prepared.polylines[int(mark[2])], obstacle), None
     mesh = mark and mark[1] == "mesh"
     if mesh or isinstance(shape, Mesh):
         path, scale, origin = (
@@ -285,51 +286,39 @@ def _obstacles(
     return [dataclasses.replace(obstacle, shape=_SHAPES[type(shape)](shape))], None
 
 
-def _extruded(polylines: tuple, X_SG: RigidTransform, where: str) -> list[sc.Obstacle]:
-    """Extruded polygons at X_SG in the scenario: each triangle's prism, a
-    convex obstacle centred on its own centroid (`world.extrusions`)."""
+def _extruded(polylines: tuple, placed: sc.Obstacle) -> list[sc.Obstacle]:
+    """Extruded polygons where `placed` (their collision at its pose in the
+    scenario) puts them: each triangle's prism a convex piece
+    (`world.extrusions`, `decomposition.placed_pieces`)."""
     shapes, origin = polylines
-    angles = np.degrees(RollPitchYaw(X_SG.rotation()).vector())
-    rpy = [round(float(a), RPY_DECIMALS) + 0.0 for a in angles]
-    obstacles = []
+    pieces = []
     for points, height in shapes:
         try:
-            pieces = prisms(points, height)
+            pieces += prisms(points, height)
         except ValueError as e:
-            raise ValueError(f"{origin}: {where}: {e}") from None
-        for corners in pieces:
-            centre = corners.mean(axis=0)
-            obstacles.append(
-                sc.Obstacle(
-                    shape=sc.Convex(vertices=(corners - centre).tolist()),
-                    position=[float(x) for x in X_SG.multiply(centre)],
-                    rpy_deg=rpy,
-                    name=f"{where} piece {len(obstacles)}",
-                )
-            )
-    return obstacles
+            raise ValueError(f"{origin}: {placed.name}: {e}") from None
+    return placed_pieces(placed, pieces, placed.name)
 
 
 def _terrain(
-    heightmap: tuple, X_SG: RigidTransform, where: str
+    heightmap: tuple, placed: sc.Obstacle, X_SG: RigidTransform
 ) -> tuple[list[sc.Obstacle], float]:
-    """A terrain's columns at X_SG in the scenario, and its lowest level
-    the ground (`world.terrain`): its frame must face up, as the ground
-    does."""
+    """A terrain's columns where `placed` (its collision's pose X_SG in the
+    scenario, and its name) puts them, and its lowest level the ground
+    (`world.terrain`): its frame must face up, as the ground does."""
     path, size, pos, origin = heightmap
     if X_SG.rotation().matrix()[2, 2] < 1.0 - 1e-9:
-        raise ValueError(f"{origin}: {where}: a heightmap must face up (+z)")
+        raise ValueError(f"{origin}: {placed.name}: a heightmap must face up (+z)")
     try:
         ground, columns = terrain_columns(read_heights(path), size, pos)
     except ValueError as e:
         raise ValueError(f"{origin}: heightmap {path}: {e}") from None
-    yaw = [0.0, 0.0, float(np.degrees(RollPitchYaw(X_SG.rotation()).yaw_angle()))]
     return [
-        sc.Obstacle(
+        dataclasses.replace(
+            placed,
             shape=sc.Box(size=box),
             position=[float(x) for x in X_SG.multiply(np.asarray(centre))],
-            rpy_deg=[round(a, RPY_DECIMALS) + 0.0 for a in yaw],
-            name=f"{where} column {k}",
+            name=f"{placed.name} column {k}",
         )
         for k, (centre, box) in enumerate(columns)
     ], float(X_SG.translation()[2] + ground)
