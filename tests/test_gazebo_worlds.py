@@ -554,15 +554,16 @@ def test_a_polyline_is_its_extruded_outline_exactly(tmp_path):
     repeated at the end) extruded 2 m, in a model at (5, 0, 1): 4 triangle
     prisms whose distances from points around it are those of the two
     boxes the L is made of (the oracle); its hull's would not be. A
-    polyline that crosses itself is one line naming the file's line."""
+    polyline that crosses itself, or of no height, is one line naming the
+    file's line."""
     corners = ["0 0", "0 2", "1 2", "1 1", "2 1", "2 0", "0 0"]
     points = "".join(f"<point>{c}</point>" for c in corners)
-    path = _world_file(
-        tmp_path,
+    path_text = (
         '<model name="l"><static>true</static><pose>5 0 1 0 0 0</pose>'
         '<link name="k"><collision name="c"><geometry><polyline>'
-        f"{points}<height>2</height></polyline></geometry></collision></link></model>",
+        f"{points}<height>2</height></polyline></geometry></collision></link></model>"
     )
+    path = _world_file(tmp_path, path_text)
     world = world_obstacles(path, "w.world")
     assert len(world.obstacles) == 4 and world.notes == ""
     boxes = [
@@ -584,6 +585,11 @@ def test_a_polyline_is_its_extruded_outline_exactly(tmp_path):
     )
     with pytest.raises(ValueError, match=r"w.world:1: .*must not cross itself"):
         world_obstacles(bow, "w.world")
+    flat = _world_file(
+        tmp_path, path_text.replace("<height>2</height>", "<height>0</height>")
+    )
+    with pytest.raises(ValueError, match=r"w.world:1: a polyline's height must be pos"):
+        world_obstacles(flat, "w.world")
 
 
 def test_world_pose_places_a_cloud(tmp_path):

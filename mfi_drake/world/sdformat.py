@@ -413,6 +413,8 @@ class _Reader:
                 raise ValueError(
                     f"{where}: a polyline's points must be 2 numbers, its height 1"
                 )
+            if height[0] <= 0.0:  # a flat prism is no solid
+                raise ValueError(f"{where}: a polyline's height must be positive")
             shapes.append((points, height[0]))
         for extra in geometry.findall("polyline")[1:]:  # the placeholder's
             geometry.remove(extra)
